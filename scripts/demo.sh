@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Sets everything up (packages + Release build), simulates a short DROID-like sequence of DBA
+# snapshots and computes their pose covariances. Outputs land in build/demo/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+out=build/demo
+rm -rf "$out"
+build/bin/simul-dba -o "$out" --snapshots 5 --seed 1
+build/bin/dba-covariance -i "$out" --csv "$out/covariances.csv" --weight-scale 4
+echo "demo: $(($(wc -l < "$out/covariances.csv") - 1)) keyframe covariances in $out/covariances.csv"

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs every Debian package that dbacov's build, tests, demo and benchmarks need, then configures
+# and builds the project (Release) in ./build. Idempotent: packages already present are not
+# reinstalled and the build is incremental. Usage: scripts/setup.sh [--no-build]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config git
+  libeigen3-dev libsuitesparse-dev libzip-dev
+  libmrpt-dev mrpt-apps
+  libopencv-dev
+  libcli11-dev nlohmann-json3-dev libtbb-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libceres-dev
+  gnuplot-nox
+  libegl1 libegl-mesa0 libgl1-mesa-dri
+  python3-numpy
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}" >&2
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+if [ "${1:-}" != "--no-build" ]; then
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+  cmake --build build -j"$(nproc)"
+fi
