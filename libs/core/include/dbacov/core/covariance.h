@@ -1,0 +1,62 @@
+// Marginal pose covariances of one DBA snapshot (SPEC §4–§5). The query API is deliberately small:
+// build once, then ask for one keyframe's covariance, a joint block or a relative-pose covariance.
+//
+// Statistical model: every pixel factor r ~ N(0, Λ⁻¹) with Λ = weight_scale · diag(w_x, w_y),
+// independent across pixels and edges, linearized at the snapshot's state (which DBA made a local
+// optimum). The covariances are the inverse of the Gauss-Newton information with the depths
+// marginalized and the gauge of SPEC §4; they are as good as this model. Raw DROID weights treat
+// correlated pixels as independent, so calibrate `weight_scale` against ground truth (SPEC §7).
+//
+// Construction fails with
+//   - InputError      when the snapshot is invalid,
+//   - NumericalError  naming keyframes when no gauge reaches part of the graph, or when the reduced
+//                     system is not positive definite (degenerate geometry, all weights zero).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "dbacov/core/linearization.h"
+#include "dbacov/core/options.h"
+#include "dbacov/core/se3.h"
+#include "dbacov/core/snapshot.h"
+
+namespace dbacov {
+
+enum class SolverKind {
+  Dense,  ///< dense Cholesky + full inverse (reference; small graphs)
+};
+
+class DbaCovariance {
+ public:
+  DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
+                SolverKind solver = SolverKind::Dense);
+  ~DbaCovariance();
+  DbaCovariance(DbaCovariance&&) noexcept;
+  DbaCovariance& operator=(DbaCovariance&&) noexcept;
+
+  /// Graph keyframes (indices into the snapshot's poses), ascending.
+  const std::vector<int>& keyframes() const;
+  bool contains(int keyframe) const;
+  /// The keyframes that carry the gauge (two-pose: both priors; minimal: fixed, then scale).
+  std::vector<int> gaugeKeyframes() const;
+  /// Number of free tangent DoF of a keyframe after the gauge (6, or fewer for gauge keyframes).
+  int freeDof(int keyframe) const;
+
+  /// 6×6 covariance of ξ_k (SPEC §3). Zero for hard-fixed keyframes.
+  Matrix6d marginal(int keyframe) const;
+  /// 12×12 joint covariance of (ξ_a, ξ_b), a first.
+  Matrix12d joint(int a, int b) const;
+  /// Covariance of the tangent of Z = T_wc_a⁻¹ T_wc_b (SPEC §5).
+  Matrix6d relative(int a, int b) const;
+
+  /// Camera-to-world pose of a keyframe at the linearization point.
+  const Eigen::Isometry3d& T_wc(int keyframe) const;
+  const LinearizationStats& stats() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dbacov

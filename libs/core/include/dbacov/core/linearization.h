@@ -1,0 +1,65 @@
+// Linearization of a snapshot's DBA at its stored state and elimination of the depths (SPEC §4).
+//
+// Variables: the tangent ξ_a (SPEC §3) of every graph keyframe ("slot" a, ascending keyframe index)
+// and one inverse depth d_k per (source keyframe, pixel), shared by every edge leaving that
+// keyframe. With whitened residuals the normal equations are
+//     [Hpp  Hpd] [δp]     [g_p]
+//     [Hdp  Hdd] [δd] = − [g_d],     g = Jᵀ Λ r,   H = Jᵀ Λ J,
+// Hdd diagonal (h_k). Eliminating the depths gives the reduced pose system
+//     S = Hpp − Hpd Hdd⁻¹ Hdp,   g_S = g_p − Hpd Hdd⁻¹ g_d.
+// Column k of Hpd is b_k, non-zero only on the source keyframe of d_k and on the targets of the
+// edges leaving it ("touched" slots), so depth k adds −b_k b_kᵀ / h_k to the blocks of all pairs of
+// touched slots: every source keyframe's touched set becomes a clique of S.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "dbacov/core/block_matrix.h"
+#include "dbacov/core/options.h"
+#include "dbacov/core/snapshot.h"
+
+namespace dbacov {
+
+/// The depth variables of one source keyframe (kept only on request).
+struct DepthTerms {
+  int source_slot = -1;
+  std::vector<int> touched;   ///< slots: touched[0] = source, then the distinct edge targets
+  std::vector<int> pixel;     ///< pixel index y·W + x of each kept depth variable
+  std::vector<double> h;      ///< Hdd entry of each kept depth (> depth_info_eps)
+  std::vector<double> g;      ///< g_d entry of each kept depth
+  Eigen::MatrixXd B;          ///< 6·|touched| × pixel.size(): column k is b_k on the touched slots
+};
+
+struct LinearizationStats {
+  std::size_t factors_used = 0;          ///< pixel factors (edge, pixel) that carry information
+  std::size_t factors_filtered = 0;      ///< dropped by the depth filters or behind the camera
+  std::size_t depths_used = 0;           ///< depth variables eliminated
+  std::size_t depths_unobservable = 0;   ///< depth variables with 0 < Hdd <= eps (not eliminated)
+  double chi2 = 0.0;                     ///< Σ rᵀ Λ r over used factors
+};
+
+struct DbaNormalEquations {
+  std::vector<int> keyframes;  ///< slot → keyframe index (the graph keyframes, ascending)
+  std::vector<int> slot_of;    ///< keyframe index → slot, or −1 when not in the graph
+  BlockSymmetricMatrix Hpp;    ///< pose block before elimination
+  BlockSymmetricMatrix S;      ///< reduced pose system
+  Eigen::VectorXd g_p;         ///< pose gradient before elimination (6 per slot)
+  Eigen::VectorXd g_S;         ///< reduced gradient
+  std::vector<DepthTerms> depths;  ///< per source keyframe, only with keep_depth_terms
+  LinearizationStats stats;
+};
+
+/// Decides whether a pixel factor carries information under the options' filters (SPEC §2):
+/// Y2 = z_j·d must be positive, >= min_depth_ratio when set; with near: d < 1/near and
+/// Y2/d > near; with far: d > 1/far.
+bool keepPixelFactor(const DbaOptions& options, double d, double Y2);
+
+/// Linearizes every pixel factor at the snapshot's state and eliminates the depths. The snapshot
+/// must be valid (Snapshot::validate). Pixels with d <= 0 or both weights zero carry nothing.
+DbaNormalEquations linearizeDba(const Snapshot& snapshot, const DbaOptions& options,
+                                bool keep_depth_terms = false);
+
+}  // namespace dbacov

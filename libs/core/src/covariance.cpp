@@ -1,0 +1,116 @@
+#include "dbacov/core/covariance.h"
+
+#include <numeric>
+#include <stdexcept>
+
+#include "dbacov/core/gauge.h"
+#include "dbacov/core/marginal_solver.h"
+
+namespace dbacov {
+
+struct DbaCovariance::Impl {
+  DbaNormalEquations ne;
+  GaugeParameterization gauge;
+  std::unique_ptr<MarginalSolver> solver;
+  std::vector<Eigen::Isometry3d> T_wc;  // per keyframe index (identity for keyframes not in graph)
+
+  int slot(int keyframe) const {
+    if (keyframe < 0 || keyframe >= static_cast<int>(ne.slot_of.size()) || ne.slot_of[keyframe] < 0)
+      throw std::invalid_argument("keyframe " + std::to_string(keyframe) +
+                                  " is not in the snapshot's graph");
+    return ne.slot_of[keyframe];
+  }
+
+  std::vector<int> reducedIndices(int s) const {
+    std::vector<int> idx(gauge.dimOf(s));
+    std::iota(idx.begin(), idx.end(), gauge.offset[s]);
+    return idx;
+  }
+
+  /// Σ[ξ_a, ξ_b] = basis_a Σ_r[a, b] basis_bᵀ.
+  Matrix6d crossBlock(int sa, int sb) const {
+    if (gauge.dimOf(sa) == 0 || gauge.dimOf(sb) == 0) return Matrix6d::Zero();
+    const Eigen::MatrixXd Sr = solver->covariance(reducedIndices(sa), reducedIndices(sb));
+    return gauge.basis[sa] * Sr * gauge.basis[sb].transpose();
+  }
+};
+
+DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options, SolverKind kind)
+    : impl_(std::make_unique<Impl>()) {
+  options.validate();
+  Impl& m = *impl_;
+  m.ne = linearizeDba(snapshot, options);
+  m.gauge = makeGauge(options.gauge, snapshot, m.ne.keyframes);
+  checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
+  m.T_wc.assign(snapshot.numKeyframes(), Eigen::Isometry3d::Identity());
+  for (int k : m.ne.keyframes) m.T_wc[k] = snapshot.T_wc(k);
+
+  switch (kind) {
+    case SolverKind::Dense:
+      m.solver = makeDenseMarginalSolver();
+      break;
+  }
+  try {
+    m.solver->factorize(reduceSystem(m.ne.S, m.gauge));
+  } catch (const FactorizationError& e) {
+    std::vector<int> kf;
+    if (e.column() >= 0) {
+      const auto it = std::upper_bound(m.gauge.offset.begin(), m.gauge.offset.end(), e.column());
+      kf.push_back(m.ne.keyframes[it - m.gauge.offset.begin() - 1]);
+    }
+    throw NumericalError(
+        "the reduced information matrix S is not positive definite" +
+            (kf.empty() ? std::string()
+                        : " (breakdown at keyframe " + joinKeyframes(kf) + ")") +
+            ": some motion is unobservable (degenerate geometry, too few weighted pixels, or "
+            "a gauge that does not fix every DoF)",
+        kf);
+  }
+}
+
+DbaCovariance::~DbaCovariance() = default;
+DbaCovariance::DbaCovariance(DbaCovariance&&) noexcept = default;
+DbaCovariance& DbaCovariance::operator=(DbaCovariance&&) noexcept = default;
+
+const std::vector<int>& DbaCovariance::keyframes() const { return impl_->ne.keyframes; }
+
+bool DbaCovariance::contains(int k) const {
+  return k >= 0 && k < static_cast<int>(impl_->ne.slot_of.size()) && impl_->ne.slot_of[k] >= 0;
+}
+
+std::vector<int> DbaCovariance::gaugeKeyframes() const {
+  std::vector<int> kf;
+  for (int s : impl_->gauge.gauge_slots) kf.push_back(impl_->ne.keyframes[s]);
+  return kf;
+}
+
+int DbaCovariance::freeDof(int k) const { return impl_->gauge.dimOf(impl_->slot(k)); }
+
+Matrix6d DbaCovariance::marginal(int k) const {
+  const int s = impl_->slot(k);
+  const Matrix6d C = impl_->crossBlock(s, s);
+  return 0.5 * (C + C.transpose());
+}
+
+Matrix12d DbaCovariance::joint(int a, int b) const {
+  const int sa = impl_->slot(a), sb = impl_->slot(b);
+  Matrix12d J;
+  J.topLeftCorner<6, 6>() = marginal(a);
+  J.bottomRightCorner<6, 6>() = marginal(b);
+  J.topRightCorner<6, 6>() = impl_->crossBlock(sa, sb);
+  J.bottomLeftCorner<6, 6>() = J.topRightCorner<6, 6>().transpose();
+  return J;
+}
+
+Matrix6d DbaCovariance::relative(int a, int b) const {
+  return relativeCovariance(T_wc(a), T_wc(b), joint(a, b));
+}
+
+const Eigen::Isometry3d& DbaCovariance::T_wc(int k) const {
+  impl_->slot(k);
+  return impl_->T_wc[k];
+}
+
+const LinearizationStats& DbaCovariance::stats() const { return impl_->ne.stats; }
+
+}  // namespace dbacov

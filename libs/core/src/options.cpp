@@ -1,0 +1,45 @@
+#include "dbacov/core/options.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace dbacov {
+
+DbaOptions DbaOptions::droid() { return DbaOptions{}; }
+
+DbaOptions DbaOptions::paper() {
+  DbaOptions o;
+  o.weight_scale = 0.1;
+  o.min_depth_ratio.reset();
+  o.near = 0.25;
+  o.far = 2.0;
+  o.gauge.type = GaugeOptions::Type::TwoPose;
+  o.gauge.sigma_rot = M_PI / 180.0;
+  o.gauge.sigma_trans = 0.05;
+  return o;
+}
+
+DbaOptions DbaOptions::preset(const std::string& name) {
+  if (name == "droid") return droid();
+  if (name == "paper") return paper();
+  throw std::invalid_argument("unknown preset '" + name + "', expected 'droid' or 'paper'");
+}
+
+void DbaOptions::validate() const {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0; };
+  if (!positive(weight_scale))
+    throw std::invalid_argument("weight scale must be finite and > 0");
+  if (min_depth_ratio && !(std::isfinite(*min_depth_ratio) && *min_depth_ratio >= 0))
+    throw std::invalid_argument("minimum depth ratio must be finite and >= 0");
+  if (near && !positive(*near)) throw std::invalid_argument("near must be finite and > 0");
+  if (far && !positive(*far)) throw std::invalid_argument("far must be finite and > 0");
+  if (near && far && !(*near < *far)) throw std::invalid_argument("near must be < far");
+  if (!(std::isfinite(gauge.sigma_rot) && gauge.sigma_rot >= 0))
+    throw std::invalid_argument("gauge rotation sigma must be finite and >= 0");
+  if (!(std::isfinite(gauge.sigma_trans) && gauge.sigma_trans >= 0))
+    throw std::invalid_argument("gauge translation sigma must be finite and >= 0");
+  if (!(std::isfinite(depth_info_eps) && depth_info_eps >= 0))
+    throw std::invalid_argument("depth information threshold must be finite and >= 0");
+}
+
+}  // namespace dbacov

@@ -1,0 +1,123 @@
+#include "dbacov/core/snapshot.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "dbacov/core/se3.h"
+
+namespace dbacov {
+namespace {
+
+[[noreturn]] void fail(const Snapshot& s, const std::string& what) {
+  throw InputError(s.source + ": " + what);
+}
+
+std::string shapeStr(std::initializer_list<std::size_t> dims) {
+  std::ostringstream os;
+  os << '(';
+  std::size_t n = 0;
+  for (std::size_t d : dims) os << (n++ ? "," : "") << d;
+  os << ')';
+  return os.str();
+}
+
+/// Index of the first non-finite value, or -1.
+template <typename T>
+long long firstNonFinite(const T* v, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) return static_cast<long long>(i);
+  return -1;
+}
+
+}  // namespace
+
+Eigen::Isometry3d Snapshot::T_cw(int k) const { return poseFromTQ(poses_cw.row(k).data()); }
+
+Eigen::Isometry3d Snapshot::T_wc(int k) const { return T_cw(k).inverse(); }
+
+void Snapshot::setT_wc(int k, const Eigen::Isometry3d& T) {
+  poses_cw.row(k) = poseToTQ(T.inverse()).transpose();
+}
+
+std::vector<int> Snapshot::graphKeyframes() const {
+  std::vector<char> used(numKeyframes(), 0);
+  for (std::size_t e = 0; e < ii.size(); ++e) {
+    used[ii[e]] = 1;
+    used[jj[e]] = 1;
+  }
+  std::vector<int> kf;
+  for (int k = 0; k < numKeyframes(); ++k)
+    if (used[k]) kf.push_back(k);
+  return kf;
+}
+
+void Snapshot::validate() const {
+  const std::size_t N = poses_cw.rows(), E = ii.size(), HW = pixelsPerFrame();
+  if (N == 0) fail(*this, "key 'poses' is empty: expected at least 2 keyframes");
+  if (H <= 0 || W <= 0) fail(*this, "key 'disps' has an empty H×W grid");
+  if (disps.size() != N * HW)
+    fail(*this, "key 'disps' has " + std::to_string(disps.size()) + " values, expected " +
+                    shapeStr({N, std::size_t(H), std::size_t(W)}) + " (N from 'poses')");
+  if (jj.size() != E)
+    fail(*this, "keys 'ii' and 'jj' differ in length (" + std::to_string(E) + " vs " +
+                    std::to_string(jj.size()) + ")");
+  if (E == 0) fail(*this, "keys 'ii'/'jj' are empty: the snapshot has no edges");
+  for (const auto& [key, arr] : {std::pair<const char*, const std::vector<float>*>{"target", &target},
+                                 {"weight", &weight}}) {
+    if (arr->size() != E * 2 * HW)
+      fail(*this, std::string("key '") + key + "' has " + std::to_string(arr->size()) +
+                      " values, expected " + shapeStr({E, 2, std::size_t(H), std::size_t(W)}) +
+                      " (E from 'ii', H×W from 'disps')");
+  }
+  if (tstamp.size() != N)
+    fail(*this, "key 'tstamp' has " + std::to_string(tstamp.size()) + " values, expected " +
+                    std::to_string(N) + " (N from 'poses')");
+  if (timestamps_s && timestamps_s->size() != N)
+    fail(*this, "key 'timestamps_s' has " + std::to_string(timestamps_s->size()) +
+                    " values, expected " + std::to_string(N) + " (N from 'poses')");
+
+  for (std::size_t e = 0; e < E; ++e) {
+    for (const auto& [key, v] : {std::pair<const char*, std::int64_t>{"ii", ii[e]}, {"jj", jj[e]}})
+      if (v < 0 || v >= static_cast<std::int64_t>(N))
+        fail(*this, std::string("key '") + key + "' edge " + std::to_string(e) + " names keyframe " +
+                        std::to_string(v) + ", expected 0.." + std::to_string(N - 1));
+    if (ii[e] == jj[e])
+      fail(*this, "edge " + std::to_string(e) + " links keyframe " + std::to_string(ii[e]) +
+                      " to itself (ii == jj)");
+  }
+
+  for (std::size_t k = 0; k < N; ++k) {
+    if (firstNonFinite(poses_cw.row(k).data(), 7) >= 0)
+      fail(*this, "key 'poses' keyframe " + std::to_string(k) + " has a non-finite value");
+    if (poses_cw.row(k).tail<4>().norm() < 1e-6)
+      fail(*this, "key 'poses' keyframe " + std::to_string(k) +
+                      " has a zero quaternion, expected a unit quaternion [qx qy qz qw]");
+  }
+  if (firstNonFinite(intrinsics.data(), 4) >= 0 || !(intrinsics[0] > 0) || !(intrinsics[1] > 0))
+    fail(*this, "key 'intrinsics' must be finite with fx, fy > 0");
+
+  auto pixelOf = [&](std::size_t flat, std::size_t planes_per_item, const char* item) {
+    const std::size_t plane = flat / HW, p = flat % HW;
+    std::ostringstream os;
+    os << item << ' ' << plane / planes_per_item;
+    if (planes_per_item == 2) os << " channel " << plane % 2;
+    os << " pixel (x=" << p % W << ", y=" << p / W << ")";
+    return os.str();
+  };
+  if (long long bad = firstNonFinite(disps.data(), disps.size()); bad >= 0)
+    fail(*this, "key 'disps' is non-finite at " + pixelOf(bad, 1, "keyframe"));
+  if (long long bad = firstNonFinite(target.data(), target.size()); bad >= 0)
+    fail(*this, "key 'target' is non-finite at " + pixelOf(bad, 2, "edge"));
+  if (long long bad = firstNonFinite(weight.data(), weight.size()); bad >= 0)
+    fail(*this, "key 'weight' is non-finite at " + pixelOf(bad, 2, "edge"));
+  for (std::size_t i = 0; i < weight.size(); ++i)
+    if (weight[i] < 0)
+      fail(*this, "key 'weight' is negative (" + std::to_string(weight[i]) + ") at " +
+                      pixelOf(i, 2, "edge") + ", expected confidences >= 0");
+  if (firstNonFinite(tstamp.data(), tstamp.size()) >= 0)
+    fail(*this, "key 'tstamp' has a non-finite value");
+  if (timestamps_s && firstNonFinite(timestamps_s->data(), timestamps_s->size()) >= 0)
+    fail(*this, "key 'timestamps_s' has a non-finite value");
+}
+
+}  // namespace dbacov
