@@ -1,0 +1,225 @@
+// NpzReader / NpzWriter on libzip. Every libzip handle is owned by a std::unique_ptr.
+#include "dbacov/io/npz.h"
+
+#include <zip.h>
+
+#include <ctime>
+#include <filesystem>
+#include <stdexcept>
+
+#include "dbacov/io/atomic_file.h"
+#include "npy_internal.h"
+
+namespace dbacov::io {
+namespace {
+
+struct ZipDiscard {
+  void operator()(zip_t* z) const { zip_discard(z); }
+};
+struct ZipFileClose {
+  void operator()(zip_file_t* f) const { zip_fclose(f); }
+};
+struct ZipSourceFree {
+  void operator()(zip_source_t* s) const { zip_source_free(s); }
+};
+struct ZipErrorFini {
+  void operator()(zip_error_t* e) const { zip_error_fini(e); }
+};
+using ZipPtr = std::unique_ptr<zip_t, ZipDiscard>;
+using ZipFilePtr = std::unique_ptr<zip_file_t, ZipFileClose>;
+using ZipSourcePtr = std::unique_ptr<zip_source_t, ZipSourceFree>;
+
+constexpr const char* kSuffix = ".npy";
+constexpr std::uint64_t kDeflateMaxRatio = 1032;  // deflate cannot expand more than this
+
+/// libzip's message for an error code from zip_open.
+std::string zipErrorString(int code) {
+  zip_error_t e;
+  zip_error_init_with_code(&e, code);
+  std::unique_ptr<zip_error_t, ZipErrorFini> guard(&e);
+  return zip_error_strerror(&e);
+}
+
+/// 1980-01-01 00:00 local time: the DOS epoch that NumPy's zipfile members carry.
+std::time_t dosEpoch() {
+  std::tm t{};
+  t.tm_year = 80;
+  t.tm_mday = 1;
+  t.tm_isdst = -1;
+  return std::mktime(&t);
+}
+
+}  // namespace
+
+struct NpzReader::Impl {
+  std::string path;
+  std::uint64_t max_entry_bytes = 0;
+  std::uint64_t file_size = 0;
+  ZipPtr zip;
+};
+
+NpzReader::NpzReader(const std::string& path, std::uint64_t max_entry_bytes)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->path = path;
+  impl_->max_entry_bytes = max_entry_bytes;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw InputError(path + ": cannot open .npz archive: " +
+                     (ec ? ec.message() : std::string("not a regular file")));
+  impl_->file_size = std::filesystem::file_size(path, ec);
+  if (ec) throw InputError(path + ": cannot open .npz archive: " + ec.message());
+  int code = 0;
+  impl_->zip.reset(zip_open(path.c_str(), ZIP_RDONLY, &code));
+  if (!impl_->zip)
+    throw InputError(path + ": cannot open as a .npz (zip) archive: " + zipErrorString(code));
+}
+
+NpzReader::~NpzReader() = default;
+NpzReader::NpzReader(NpzReader&&) noexcept = default;
+NpzReader& NpzReader::operator=(NpzReader&&) noexcept = default;
+
+const std::string& NpzReader::path() const {
+  return impl_->path;
+}
+
+std::vector<std::string> NpzReader::keys() const {
+  std::vector<std::string> keys;
+  const zip_int64_t n = zip_get_num_entries(impl_->zip.get(), 0);
+  for (zip_int64_t i = 0; i < n; ++i) {
+    const char* name = zip_get_name(impl_->zip.get(), static_cast<zip_uint64_t>(i), 0);
+    if (!name) continue;
+    const std::string s(name);
+    if (s.size() > 4 && s.compare(s.size() - 4, 4, kSuffix) == 0)
+      keys.push_back(s.substr(0, s.size() - 4));
+  }
+  return keys;
+}
+
+bool NpzReader::has(const std::string& key) const {
+  return zip_name_locate(impl_->zip.get(), (key + kSuffix).c_str(), 0) >= 0;
+}
+
+NpyArray NpzReader::read(const std::string& key) const {
+  zip_t* za = impl_->zip.get();
+  const std::string context = impl_->path + ": key '" + key + "'";
+  auto fail = [&](const std::string& what) { throw InputError(context + ": " + what); };
+
+  const zip_int64_t index = zip_name_locate(za, (key + kSuffix).c_str(), 0);
+  if (index < 0) throw InputError(impl_->path + ": missing key '" + key + "'");
+  const auto idx = static_cast<zip_uint64_t>(index);
+  zip_stat_t st;
+  zip_stat_init(&st);
+  if (zip_stat_index(za, idx, 0, &st) != 0) fail(std::string("cannot stat: ") + zip_strerror(za));
+  const zip_uint64_t need = ZIP_STAT_SIZE | ZIP_STAT_COMP_SIZE | ZIP_STAT_COMP_METHOD;
+  if ((st.valid & need) != need) fail("the archive does not record the member's sizes");
+  if ((st.valid & ZIP_STAT_ENCRYPTION_METHOD) && st.encryption_method != ZIP_EM_NONE)
+    fail("encrypted members are not supported");
+
+  // Size checks before anything is allocated: the limit, then plausibility against the bytes
+  // that are really in the archive.
+  if (st.size > impl_->max_entry_bytes)
+    fail("member of " + std::to_string(st.size) + " bytes exceeds the limit of " +
+         std::to_string(impl_->max_entry_bytes) + " bytes");
+  if (st.comp_size > impl_->file_size)
+    fail("member claims " + std::to_string(st.comp_size) + " compressed bytes in a file of " +
+         std::to_string(impl_->file_size) + " bytes (damaged archive)");
+  if (st.comp_method == ZIP_CM_STORE) {
+    if (st.size != st.comp_size)
+      fail("stored member has inconsistent sizes (" + std::to_string(st.size) + " vs " +
+           std::to_string(st.comp_size) + " bytes; damaged archive)");
+  } else if (st.comp_method == ZIP_CM_DEFLATE) {
+    if (st.size > st.comp_size * kDeflateMaxRatio + 1024)
+      fail("deflated member claims " + std::to_string(st.size) + " bytes from " +
+           std::to_string(st.comp_size) + " compressed bytes (damaged archive)");
+  } else {
+    fail("compression method " + std::to_string(st.comp_method) +
+         " is not supported (expected stored or deflated, as NumPy writes)");
+  }
+
+  ZipFilePtr file(zip_fopen_index(za, idx, 0));
+  if (!file) fail(std::string("cannot open member: ") + zip_strerror(za));
+  return readNpyStream(
+      st.size,
+      [&](unsigned char* dst, std::size_t n) -> std::size_t {
+        const zip_int64_t got = zip_fread(file.get(), dst, n);
+        if (got < 0) fail(std::string("cannot read member: ") + zip_file_strerror(file.get()));
+        return static_cast<std::size_t>(got);
+      },
+      context);
+}
+
+NpzWriter::NpzWriter(std::string path, bool compressed)
+    : path_(std::move(path)), compressed_(compressed) {}
+
+void NpzWriter::add(const std::string& key, const NpyArray& array) {
+  if (committed_) throw std::logic_error("NpzWriter::add: " + path_ + " already committed");
+  if (key.empty() || key.find('\0') != std::string::npos)
+    throw std::invalid_argument("NpzWriter::add: invalid key for " + path_);
+  const std::string name = key + kSuffix;
+  for (const auto& m : members_)
+    if (m.first == name)
+      throw std::invalid_argument("NpzWriter::add: duplicate key '" + key + "' for " + path_);
+  members_.emplace_back(name, serializeNpy(array));
+}
+
+void NpzWriter::commit() {
+  if (committed_) throw std::logic_error("NpzWriter::commit: " + path_ + " already committed");
+  auto fail = [&](const std::string& what) { throw InputError(path_ + ": " + what); };
+
+  // An archive without members: libzip would delete it instead, so write the 22-byte
+  // end-of-central-directory record that np.savez() writes for no arrays.
+  std::vector<unsigned char> bytes = {'P', 'K', 5, 6};
+  bytes.resize(22, 0);
+  if (!members_.empty()) {
+    zip_error_t error;
+    zip_error_init(&error);
+    std::unique_ptr<zip_error_t, ZipErrorFini> error_guard(&error);
+    ZipSourcePtr buffer(zip_source_buffer_create(nullptr, 0, 0, &error));
+    if (!buffer) fail(std::string("cannot create a zip buffer: ") + zip_error_strerror(&error));
+    ZipPtr zip(zip_open_from_source(buffer.get(), ZIP_CREATE | ZIP_TRUNCATE, &error));
+    if (!zip) fail(std::string("cannot create a zip archive: ") + zip_error_strerror(&error));
+    zip_source_keep(buffer.get());  // `zip` owns one reference, `buffer` the other
+    const std::time_t mtime = dosEpoch();
+    for (const auto& [name, npy] : members_) {
+      const std::string key = name.substr(0, name.size() - 4);
+      zip_source_t* src = zip_source_buffer(zip.get(), npy.data(), npy.size(), 0);
+      const zip_int64_t idx =
+          src ? zip_file_add(zip.get(), name.c_str(), src, ZIP_FL_ENC_UTF_8) : -1;
+      if (idx < 0) {
+        zip_source_free(src);
+        fail("key '" + key + "': cannot add to the archive: " + zip_strerror(zip.get()));
+      }
+      const auto i = static_cast<zip_uint64_t>(idx);
+      if (zip_set_file_compression(zip.get(), i, compressed_ ? ZIP_CM_DEFLATE : ZIP_CM_STORE, 0) ||
+          zip_file_set_mtime(zip.get(), i, mtime, 0))
+        fail("key '" + key + "': " + zip_strerror(zip.get()));
+    }
+    if (zip_close(zip.get()) != 0)
+      fail(std::string("cannot build the zip archive: ") + zip_strerror(zip.get()));
+    static_cast<void>(zip.release());  // zip_close freed it
+
+    // Read the finished archive back out of the buffer source.
+    zip_source_t* b = buffer.get();
+    auto bufferError = [&] {
+      fail(std::string("cannot read back the zip buffer: ") +
+           zip_error_strerror(zip_source_error(b)));
+    };
+    if (zip_source_open(b) != 0) bufferError();
+    std::unique_ptr<zip_source_t, int (*)(zip_source_t*)> opened(b, zip_source_close);
+    if (zip_source_seek(b, 0, SEEK_END) != 0) bufferError();
+    const zip_int64_t size = zip_source_tell(b);
+    if (size <= 0 || zip_source_seek(b, 0, SEEK_SET) != 0) bufferError();
+    bytes.assign(static_cast<std::size_t>(size), 0);
+    for (std::size_t done = 0; done < bytes.size();) {
+      const zip_int64_t got = zip_source_read(b, bytes.data() + done, bytes.size() - done);
+      if (got <= 0) bufferError();
+      done += static_cast<std::size_t>(got);
+    }
+  }
+  AtomicOutputFile out(path_);
+  out.write(bytes.data(), bytes.size());
+  out.commit();
+  committed_ = true;
+}
+
+}  // namespace dbacov::io
