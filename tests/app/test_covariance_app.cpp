@@ -1,0 +1,195 @@
+// dba-covariance end to end: good input, every kind of bad input (message + exit code), atomic
+// output.
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "app_runner.h"
+#include "dbacov/app/covariance_app.h"
+#include "dbacov/app/keyframe_table.h"
+#include "dbacov/core/covariance.h"
+#include "dbacov/io/snapshot_npz.h"
+#include "dbacov/sim/synthetic_snapshot.h"
+#include "temp_dir.h"
+
+namespace dbacov {
+namespace {
+
+using testing::AppResult;
+using testing::readFile;
+using testing::splitCsv;
+using testing::splitLines;
+
+AppResult run(const std::vector<std::string>& args) {
+  return testing::runApp(app::runCovarianceApp, "dba-covariance", args);
+}
+
+sim::SyntheticSnapshot writeSynthetic(const std::string& path, std::uint64_t seed, std::int64_t id) {
+  sim::SyntheticSnapshotConfig c;
+  c.num_keyframes = 6;
+  c.H = 8;
+  c.W = 10;
+  c.fx = c.fy = 9;
+  c.cx = 4.5;
+  c.cy = 3.5;
+  c.seed = seed;
+  c.id = id;
+  auto syn = sim::generateSyntheticSnapshot(c);
+  io::saveSnapshotNpz(path, syn.snapshot);
+  return syn;
+}
+
+bool contains(const std::string& hay, const std::string& needle) {
+  return hay.find(needle) != std::string::npos;
+}
+
+TEST(CovarianceApp, WritesOneFullPrecisionRowPerGraphKeyframe) {
+  testing::TempDir dir;
+  std::filesystem::create_directory(dir.file("in"));
+  writeSynthetic(dir.file("in/b.npz"), 2, 7);
+  writeSynthetic(dir.file("in/a.npz"), 1, 3);
+  const AppResult r = run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto lines = splitLines(readFile(dir.file("out.csv")));
+  ASSERT_EQ(lines.size(), 1u + 2 * 6);
+  EXPECT_EQ(lines[0], app::keyframeCsvHeader());
+  EXPECT_EQ(splitCsv(lines[0]).size(), 16u + 21u);
+  EXPECT_EQ(lines[0].substr(0, 60), "snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_op");
+  EXPECT_EQ(splitCsv(lines[0]).back(), "cov_55");
+  // Name order: a.npz (id 3) first, then b.npz (id 7).
+  EXPECT_EQ(splitCsv(lines[1])[0], "3");
+  EXPECT_EQ(splitCsv(lines[7])[0], "7");
+
+  // Values read back equal the engine's to the last bit, pose columns are T_wc.
+  const Snapshot s = io::loadSnapshotNpz(dir.file("in/a.npz"), 0);
+  DbaOptions o = DbaOptions::droid();
+  o.weight_scale = 4;
+  const DbaCovariance cov(s, o);
+  for (int row = 1; row <= 6; ++row) {
+    const auto f = splitCsv(lines[row]);
+    const int k = std::stoi(f[1]);
+    EXPECT_EQ(std::stod(f[3]), s.T_wc(k).translation().x());
+    const Matrix6d S = cov.marginal(k);
+    int col = 16;
+    for (int a = 0; a < 6; ++a)
+      for (int b = a; b < 6; ++b) EXPECT_EQ(std::stod(f[col++]), S(a, b)) << "row " << row;
+  }
+  // Hard-fixed gauge keyframes 0 and 1: zero covariance, log10 det = -inf.
+  EXPECT_EQ(splitCsv(lines[1])[10], "-inf");
+  EXPECT_EQ(splitCsv(lines[1])[16], "0");
+}
+
+TEST(CovarianceApp, SharedDroidSnapshot) {
+  const std::string shared = std::string(DBACOV_SHARED_DATA_DIR) + "/droid_window_0055.npz";
+  if (!std::filesystem::exists(shared)) GTEST_SKIP() << "missing " << shared;
+  testing::TempDir dir;
+  const AppResult r = run({"-i", shared, "--csv", dir.file("out.csv"), "--preset", "paper"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto lines = splitLines(readFile(dir.file("out.csv")));
+  ASSERT_EQ(lines.size(), 11u);  // keyframes 1..10; keyframe 0 takes part in no edge
+  EXPECT_EQ(splitCsv(lines[1])[0], "55");
+  EXPECT_EQ(splitCsv(lines[1])[1], "1");
+  EXPECT_TRUE(contains(r.err, "1 snapshots read, 1 processed, 0 failed")) << r.err;
+}
+
+TEST(CovarianceApp, BadSnapshotIsReportedAndTheRestIsWritten) {
+  testing::TempDir dir;
+  std::filesystem::create_directory(dir.file("in"));
+  writeSynthetic(dir.file("in/a.npz"), 1, 0);
+  std::ofstream(dir.file("in/b.npz")) << "not a zip archive";
+  writeSynthetic(dir.file("in/c.npz"), 3, 2);
+  const AppResult r = run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(contains(r.err, dir.file("in/b.npz"))) << r.err;
+  EXPECT_TRUE(contains(r.err, "3 snapshots read, 2 processed, 1 failed")) << r.err;
+  EXPECT_EQ(splitLines(readFile(dir.file("out.csv"))).size(), 1u + 2 * 6);
+}
+
+TEST(CovarianceApp, InvalidValuesNameFileKeyAndItem) {
+  testing::TempDir dir;
+  auto syn = writeSynthetic(dir.file("good.npz"), 1, 0);
+  Snapshot bad = syn.snapshot;
+  // Bypass saveSnapshotNpz's validation by writing through numpy-compatible arrays: negative weight.
+  bad.weight[5] = -1.0f;
+  EXPECT_THROW(io::saveSnapshotNpz(dir.file("bad.npz"), bad), InputError);
+  // An edge that loops on itself is refused on load with its index named.
+  Snapshot loop = syn.snapshot;
+  loop.jj[3] = loop.ii[3];
+  try {
+    loop.validate();
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_TRUE(contains(e.what(), "edge 3")) << e.what();
+  }
+}
+
+TEST(CovarianceApp, NumericalFailureNamesKeyframesAndContinues) {
+  testing::TempDir dir;
+  std::filesystem::create_directory(dir.file("in"));
+  auto syn = writeSynthetic(dir.file("in/a.npz"), 1, 0);
+  Snapshot s = syn.snapshot;
+  const std::size_t plane = 2 * s.pixelsPerFrame();
+  for (int e = 0; e < s.numEdges(); ++e)
+    if (s.ii[e] == 5 || s.jj[e] == 5) std::fill(s.weight.begin() + e * plane, s.weight.begin() + (e + 1) * plane, 0.0f);
+  s.id = 1;
+  io::saveSnapshotNpz(dir.file("in/b.npz"), s);
+  const AppResult r = run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(contains(r.err, "b.npz (snapshot 1)")) << r.err;
+  EXPECT_TRUE(contains(r.err, "keyframes 5")) << r.err;
+  EXPECT_EQ(splitLines(readFile(dir.file("out.csv"))).size(), 1u + 6);
+}
+
+TEST(CovarianceApp, BadUsageExitsWithTwo) {
+  testing::TempDir dir;
+  writeSynthetic(dir.file("a.npz"), 1, 0);
+  const std::string in = dir.file("a.npz"), out = dir.file("o.csv");
+  for (const auto& args : std::vector<std::vector<std::string>>{
+           {"--csv", out},                                             // no input
+           {"-i", in},                                                 // no output
+           {"-i", in, "--csv", out, "--preset", "fast"},               // unknown preset
+           {"-i", in, "--csv", out, "--gauge", "three-pose"},          // unknown gauge
+           {"-i", in, "--csv", out, "--weight-scale", "-1"},           // out of domain
+           {"-i", in, "--csv", out, "--near", "2", "--far", "1"},      // near >= far
+           {"-i", in, "--csv", out, "--gauge", "minimal", "--gauge-sigma-rot", "0.1"},
+           {"-i", in, "--csv", out, "--bogus"}}) {
+    const AppResult r = run(args);
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_TRUE(contains(r.err, "--help")) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+}
+
+TEST(CovarianceApp, MissingInputsFailWithoutTouchingTheOutput) {
+  testing::TempDir dir;
+  std::filesystem::create_directory(dir.file("empty"));
+  std::ofstream(dir.file("out.csv")) << "previous contents\n";
+  for (const auto& in : {dir.file("nope.npz"), dir.file("empty"), dir.file("out.csv")}) {
+    const AppResult r = run({"-i", in, "--csv", dir.file("out.csv")});
+    EXPECT_EQ(r.code, 1);
+    EXPECT_TRUE(contains(r.err, in)) << r.err;
+    EXPECT_EQ(readFile(dir.file("out.csv")), "previous contents\n");
+  }
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"empty", "out.csv"}));  // no temporaries
+}
+
+TEST(CovarianceApp, UnwritableOutputIsAnError) {
+  testing::TempDir dir;
+  writeSynthetic(dir.file("a.npz"), 1, 0);
+  const AppResult r = run({"-i", dir.file("a.npz"), "--csv", dir.file("no/such/dir/out.csv")});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(contains(r.err, "no/such/dir/out.csv")) << r.err;
+}
+
+TEST(CovarianceApp, HelpDocumentsEveryOptionAndTheConventions) {
+  // The real executable.
+  const AppResult r = testing::runCommand(std::string(DBACOV_BINARY_DIR) + "/bin/dba-covariance --help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* opt : {"--input", "--csv", "--preset", "--weight-scale", "--gauge", "--gauge-sigma-rot",
+                          "--gauge-sigma-trans", "--near", "--far", "--quiet", "T_wc", "[rho; phi]", "Exit status"})
+    EXPECT_TRUE(contains(r.out, opt)) << "missing " << opt << " in\n" << r.out;
+}
+
+}  // namespace
+}  // namespace dbacov
