@@ -35,8 +35,12 @@ double relErr(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 }
 
 void expectMatchesDense(const Snapshot& s, const DbaOptions& o, double tol) {
-  const DbaCovariance cov(s, o);
   const testing::DenseReference ref = testing::denseReference(s, o);
+  for (SolverKind kind : {SolverKind::Sparse, SolverKind::Dense}) {
+  SCOPED_TRACE(kind == SolverKind::Sparse ? "sparse solver" : "dense solver");
+  SolverOptions so;
+  so.kind = kind;
+  const DbaCovariance cov(s, o, so);
   ASSERT_EQ(cov.keyframes(), ref.keyframes);
   for (int a : cov.keyframes()) {
     const Matrix6d R = ref.marginal(a);
@@ -50,6 +54,7 @@ void expectMatchesDense(const Snapshot& s, const DbaOptions& o, double tol) {
       EXPECT_LT((J.topRightCorner<6, 6>() - ref.cross(a, b)).norm(), tol * R.norm())
           << "pair " << a << "," << b;
     }
+  }
   }
 }
 

@@ -1,5 +1,8 @@
 #include "dbacov/core/covariance.h"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 
@@ -13,6 +16,8 @@ struct DbaCovariance::Impl {
   GaugeParameterization gauge;
   std::unique_ptr<MarginalSolver> solver;
   std::vector<Eigen::Isometry3d> T_wc;  // per keyframe index (identity for keyframes not in graph)
+  bool depth_variances = false;
+  int H = 0, W = 0;
 
   int slot(int keyframe) const {
     if (keyframe < 0 || keyframe >= static_cast<int>(ne.slot_of.size()) || ne.slot_of[keyframe] < 0)
@@ -35,17 +40,24 @@ struct DbaCovariance::Impl {
   }
 };
 
-DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options, SolverKind kind)
+DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
+                             const SolverOptions& so)
     : impl_(std::make_unique<Impl>()) {
   options.validate();
   Impl& m = *impl_;
-  m.ne = linearizeDba(snapshot, options);
+  m.ne = linearizeDba(snapshot, options, so.depth_variances);
+  m.depth_variances = so.depth_variances;
+  m.H = snapshot.H;
+  m.W = snapshot.W;
   m.gauge = makeGauge(options.gauge, snapshot, m.ne.keyframes);
   checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
   m.T_wc.assign(snapshot.numKeyframes(), Eigen::Isometry3d::Identity());
   for (int k : m.ne.keyframes) m.T_wc[k] = snapshot.T_wc(k);
 
-  switch (kind) {
+  switch (so.kind) {
+    case SolverKind::Sparse:
+      m.solver = makeCholmodMarginalSolver(so.ordering);
+      break;
     case SolverKind::Dense:
       m.solver = makeDenseMarginalSolver();
       break;
@@ -104,6 +116,48 @@ Matrix12d DbaCovariance::joint(int a, int b) const {
 
 Matrix6d DbaCovariance::relative(int a, int b) const {
   return relativeCovariance(T_wc(a), T_wc(b), joint(a, b));
+}
+
+std::vector<int> DbaCovariance::sourceKeyframes() const {
+  std::vector<int> kf;
+  for (const DepthTerms& d : impl_->ne.depths) kf.push_back(impl_->ne.keyframes[d.source_slot]);
+  return kf;
+}
+
+std::vector<float> DbaCovariance::inverseDepthSigma(int k) const {
+  const Impl& m = *impl_;
+  if (!m.depth_variances)
+    throw std::logic_error("inverseDepthSigma needs SolverOptions::depth_variances");
+  const int slot = m.slot(k);
+  std::vector<float> sigma(static_cast<std::size_t>(m.H) * m.W,
+                           std::numeric_limits<float>::quiet_NaN());
+  const auto it = std::find_if(m.ne.depths.begin(), m.ne.depths.end(),
+                               [&](const DepthTerms& d) { return d.source_slot == slot; });
+  if (it == m.ne.depths.end() || it->pixel.empty()) return sigma;
+  const DepthTerms& dt = *it;
+
+  // b_k in reduced coordinates of the touched slots: β_a = basis_aᵀ b_k[a].
+  std::vector<int> idx;
+  for (int a : dt.touched) {
+    const std::vector<int> r = m.reducedIndices(a);
+    idx.insert(idx.end(), r.begin(), r.end());
+  }
+  const int P = static_cast<int>(dt.pixel.size());
+  Eigen::MatrixXd beta(idx.size(), P);
+  for (std::size_t t = 0, row = 0; t < dt.touched.size(); ++t) {
+    const int a = dt.touched[t], da = m.gauge.dimOf(a);
+    beta.middleRows(row, da) = m.gauge.basis[a].transpose() * dt.B.middleRows(6 * t, 6);
+    row += da;
+  }
+  // The touched slots form a clique of S, so this block lies on the factor's pattern.
+  const Eigen::MatrixXd Sigma = m.solver->covariance(idx, idx);
+  const Eigen::MatrixXd Q = Sigma * beta;
+  for (int c = 0; c < P; ++c) {
+    const double h = dt.h[c];
+    const double var = 1.0 / h + beta.col(c).dot(Q.col(c)) / (h * h);
+    sigma[dt.pixel[c]] = static_cast<float>(std::sqrt(var));
+  }
+  return sigma;
 }
 
 const Eigen::Isometry3d& DbaCovariance::T_wc(int k) const {

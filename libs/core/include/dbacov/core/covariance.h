@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "dbacov/core/linearization.h"
+#include "dbacov/core/marginal_solver.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/se3.h"
 #include "dbacov/core/snapshot.h"
@@ -24,13 +25,22 @@
 namespace dbacov {
 
 enum class SolverKind {
-  Dense,  ///< dense Cholesky + full inverse (reference; small graphs)
+  Sparse,  ///< CHOLMOD + sparse-inverse recursion (default)
+  Dense,   ///< dense Cholesky + full inverse (the test reference; small graphs only)
+};
+
+struct SolverOptions {
+  SolverKind kind = SolverKind::Sparse;
+  Ordering ordering = Ordering::Auto;
+  /// Keep the depth terms of the linearization so that inverseDepthSigma() can answer (costs
+  /// 6·(1 + targets) doubles per pixel of every source keyframe).
+  bool depth_variances = false;
 };
 
 class DbaCovariance {
  public:
   DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
-                SolverKind solver = SolverKind::Dense);
+                const SolverOptions& solver = {});
   ~DbaCovariance();
   DbaCovariance(DbaCovariance&&) noexcept;
   DbaCovariance& operator=(DbaCovariance&&) noexcept;
@@ -49,6 +59,15 @@ class DbaCovariance {
   Matrix12d joint(int a, int b) const;
   /// Covariance of the tangent of Z = T_wc_a⁻¹ T_wc_b (SPEC §5).
   Matrix6d relative(int a, int b) const;
+
+  /// Standard deviation of the inverse depth of every pixel of source keyframe `keyframe`
+  /// (H×W, C order): var(d_k) = 1/h_k + b_kᵀ Σ b_k / h_k² (SPEC §5), using only the blocks of Σ
+  /// between the keyframe and its edge targets. NaN where a pixel carries no information (no
+  /// weighted factor, filtered, d <= 0, or unobservable). Requires depth_variances in the
+  /// solver options (std::logic_error otherwise); keyframes that are no edge source get all NaN.
+  std::vector<float> inverseDepthSigma(int keyframe) const;
+  /// Keyframes that are the source of at least one edge.
+  std::vector<int> sourceKeyframes() const;
 
   /// Camera-to-world pose of a keyframe at the linearization point.
   const Eigen::Isometry3d& T_wc(int keyframe) const;

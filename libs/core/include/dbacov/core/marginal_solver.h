@@ -48,6 +48,22 @@ class MarginalSolver {
   virtual std::string name() const = 0;
 };
 
+/// Fill-reducing orderings of the sparse solver. Results do not depend on the ordering (up to
+/// round-off); speed and memory do.
+enum class Ordering {
+  Auto,     ///< CHOLMOD's default: AMD, and METIS when AMD's fill is poor
+  Amd,      ///< approximate minimum degree
+  Metis,    ///< METIS nested dissection
+  Nesdis,   ///< CHOLMOD's nested dissection
+  Natural,  ///< no permutation (tests)
+};
+
+/// Sparse supernodal Cholesky of S with CHOLMOD, then the sparse-inverse recursion
+/// (Takahashi / Golub–Plemmons, block-wise per supernode) for every entry of Σ on the factor's
+/// pattern, in about the time of the factorization and the memory of L. Requested entries off the
+/// pattern are obtained by solves with the factor (one per column, cached).
+std::unique_ptr<MarginalSolver> makeCholmodMarginalSolver(Ordering ordering = Ordering::Auto);
+
 /// Dense Cholesky of S and its full inverse: O(n³) time and O(n²) memory. The reference for tests
 /// and for small graphs.
 std::unique_ptr<MarginalSolver> makeDenseMarginalSolver();
