@@ -7,8 +7,10 @@
 
 #include "app_runner.h"
 #include "dbacov/app/covariance_app.h"
-#include "dbacov/app/keyframe_table.h"
+#include "dbacov/app/outputs.h"
 #include "dbacov/core/covariance.h"
+#include "dbacov/app/csv_format.h"
+#include "dbacov/io/npy.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "temp_dir.h"
@@ -78,6 +80,56 @@ TEST(CovarianceApp, WritesOneFullPrecisionRowPerGraphKeyframe) {
   // Hard-fixed gauge keyframes 0 and 1: zero covariance, log10 det = -inf.
   EXPECT_EQ(splitCsv(lines[1])[10], "-inf");
   EXPECT_EQ(splitCsv(lines[1])[16], "0");
+}
+
+TEST(CovarianceApp, RelativeCsvAndDepthSigmaMatchTheDenseReference) {
+  testing::TempDir dir;
+  const auto syn = writeSynthetic(dir.file("a.npz"), 4, 12);
+  const AppResult r = run({"-i", dir.file("a.npz"), "--relative-csv", dir.file("rel.csv"),
+                           "--depth-sigma", dir.file("sigma"), "--weight-scale", "4", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  DbaOptions o = DbaOptions::droid();
+  o.weight_scale = 4;
+  SolverOptions dense;
+  dense.kind = SolverKind::Dense;
+  dense.depth_variances = true;
+  const DbaCovariance ref(syn.snapshot, o, dense);
+
+  const auto lines = splitLines(readFile(dir.file("rel.csv")));
+  EXPECT_EQ(lines[0], "snapshot,from,to,tx,ty,tz,qx,qy,qz,qw," + app::upperTriangleNames("cov_"));
+  const auto pairs = syn.snapshot.relativePairs();
+  ASSERT_EQ(lines.size(), 1 + pairs.size());
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    const auto f = splitCsv(lines[p + 1]);
+    EXPECT_EQ(f[0], "12");
+    EXPECT_EQ(std::stoi(f[1]), pairs[p].first);
+    EXPECT_EQ(std::stoi(f[2]), pairs[p].second);
+    EXPECT_LT(pairs[p].first, pairs[p].second);
+    const Eigen::Isometry3d Z = syn.snapshot.T_wc(pairs[p].first).inverse() * syn.snapshot.T_wc(pairs[p].second);
+    EXPECT_NEAR(std::stod(f[3]), Z.translation().x(), 1e-12);
+    const Matrix6d R = ref.relative(pairs[p].first, pairs[p].second);
+    int col = 10;
+    for (int a = 0; a < 6; ++a)
+      for (int b = a; b < 6; ++b) EXPECT_NEAR(std::stod(f[col++]), R(a, b), 1e-9 * R.norm());
+  }
+
+  // One map per source keyframe, float32 H×W, NaN exactly where the reference has no variable.
+  for (int k : ref.sourceKeyframes()) {
+    const std::string path = dir.file("sigma/12_" + std::to_string(k) + ".npy");
+    ASSERT_TRUE(std::filesystem::exists(path)) << path;
+    const io::NpyArray a = io::readNpyFile(path);
+    EXPECT_EQ(a.dtype, io::NpyArray::DType::Float32);
+    EXPECT_EQ(a.shape, (std::vector<std::size_t>{8, 10}));
+    const std::vector<float> got = io::npyToFloats(a, path), want = ref.inverseDepthSigma(k);
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      EXPECT_EQ(std::isnan(got[i]), std::isnan(want[i])) << "pixel " << i;
+      if (!std::isnan(want[i])) {
+        EXPECT_NEAR(got[i], want[i], 1e-6 * want[i]);
+      }
+    }
+  }
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.file("sigma")), {}),
+            static_cast<long>(ref.sourceKeyframes().size()));
 }
 
 TEST(CovarianceApp, SharedDroidSnapshot) {

@@ -143,7 +143,7 @@ TEST(Covariance, RigidWorldChangeLeavesTangentCovariancesUnchanged) {
 TEST(Covariance, DisconnectedPartIsNamed) {
   auto c = smallConfig(10);
   c.num_keyframes = 6;
-  c.edge_radius = 1;
+  c.covisibility.edge_radius = 1;
   auto syn = sim::generateSyntheticSnapshot(c);
   Snapshot& s = syn.snapshot;
   // Drop the edges between keyframes 2 and 3: {0,1,2} and {3,4,5} become disconnected.

@@ -77,7 +77,7 @@ sim::SyntheticSnapshotConfig graphConfig(std::uint64_t seed, int n) {
   c.fx = c.fy = 7.0;
   c.cx = 3.5;
   c.cy = 2.5;
-  c.edge_radius = 3;
+  c.covisibility.edge_radius = 3;
   c.seed = seed;
   return c;
 }

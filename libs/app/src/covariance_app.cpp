@@ -5,11 +5,10 @@
 
 #include <CLI/CLI.hpp>
 
-#include "dbacov/app/keyframe_table.h"
+#include "dbacov/app/outputs.h"
 #include "dbacov/app/progress.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/covariance.h"
-#include "dbacov/io/atomic_file.h"
 
 namespace dbacov::app {
 namespace {
@@ -27,6 +26,11 @@ Conventions (see SPEC.md):
   0.05. Options given after the preset override it.
   Gauge keyframes are the two lowest-indexed keyframes in 'ii'. A hard-fixed keyframe has zero
   covariance and log10_det = -inf.
+  --relative-csv pairs: every co-visible pair (from the lower to the higher keyframe index) and
+  every pair of consecutive graph keyframes; pose T_wc_from^-1 * T_wc_to, same tangent.
+  --depth-sigma files: DIR/<snapshot>_<keyframe>.npy, float32 HxW standard deviation of the
+  inverse depth of each pixel of each source keyframe; NaN where a pixel carries no information.
+  All outputs are written atomically (temporary file, then rename).
 Exit status: 0 success, 1 when any snapshot or output failed (the others are still written),
 2 on bad usage.)";
 
@@ -66,6 +70,16 @@ DbaOptions CovarianceAppOptions::engineOptions() const {
   return o;
 }
 
+SolverOptions CovarianceAppOptions::solverOptions() const {
+  SolverOptions so;
+  so.kind = solver == "dense" ? SolverKind::Dense : SolverKind::Sparse;
+  if (ordering == "amd") so.ordering = Ordering::Amd;
+  if (ordering == "metis") so.ordering = Ordering::Metis;
+  if (ordering == "nesdis") so.ordering = Ordering::Nesdis;
+  if (ordering == "natural") so.ordering = Ordering::Natural;
+  return so;
+}
+
 int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
   CovarianceAppOptions opt;
   CLI::App cli{"dba-covariance: marginal pose covariances from DROID-SLAM DBA snapshots", "dba-covariance"};
@@ -73,6 +87,12 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   cli.add_option("-i,--input", opt.inputs, "Snapshot .npz file or directory of them (name order); repeatable")
       ->required();
   cli.add_option("--csv", opt.csv_path, "Write one row per (snapshot, graph keyframe): pose, criteria, covariance");
+  cli.add_option("--relative-csv", opt.relative_csv_path, "Write one row per (snapshot, keyframe pair): relative pose and covariance");
+  cli.add_option("--depth-sigma", opt.depth_sigma_dir, "Write per-pixel inverse-depth sigma maps (.npy) into this directory");
+  cli.add_option("--solver", opt.solver, "sparse (CHOLMOD, default) or dense (reference, small graphs)")
+      ->check(CLI::IsMember({"sparse", "dense"}));
+  cli.add_option("--ordering", opt.ordering, "Fill-reducing ordering of the sparse solver: auto, amd, metis, nesdis, natural")
+      ->check(CLI::IsMember({"auto", "amd", "metis", "nesdis", "natural"}));
   cli.add_option("--preset", opt.preset, "Engine preset: droid (default) or paper")
       ->check(CLI::IsMember({"droid", "paper"}));
   cli.add_option("--weight-scale", opt.weight_scale, "Information per unit confidence, px^-2 (droid 0.001, paper 0.1)");
@@ -98,7 +118,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   DbaOptions engine;
   try {
     engine = opt.engineOptions();
-    if (opt.csv_path.empty()) throw std::invalid_argument("no output requested: give --csv OUT.csv");
+    if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty())
+      throw std::invalid_argument("no output requested: give --csv, --relative-csv or --depth-sigma");
   } catch (const std::invalid_argument& e) {
     err << "dba-covariance: " << e.what() << "\nRun with --help for usage.\n";
     return 2;
@@ -107,10 +128,14 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   Summary sum;
   try {
     const SnapshotInputs inputs(opt.inputs);
-    io::AtomicOutputFile csv_file(opt.csv_path);
-    std::ofstream csv(csv_file.writePath(), std::ios::binary);
-    if (!csv) throw InputError(opt.csv_path + ": cannot open for writing");
-    csv << keyframeCsvHeader() << '\n';
+    std::vector<std::unique_ptr<OutputSink>> sinks;
+    if (!opt.csv_path.empty()) sinks.push_back(std::make_unique<KeyframeCsvSink>(opt.csv_path));
+    if (!opt.relative_csv_path.empty())
+      sinks.push_back(std::make_unique<RelativeCsvSink>(opt.relative_csv_path));
+    if (!opt.depth_sigma_dir.empty())
+      sinks.push_back(std::make_unique<DepthSigmaSink>(opt.depth_sigma_dir));
+    SolverOptions solver = opt.solverOptions();
+    for (const auto& sink : sinks) solver.depth_variances |= sink->needsDepthVariances();
 
     Progress progress(err, inputs.size(), !opt.quiet);
     auto report = [&](const std::string& what) {
@@ -123,8 +148,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
           ++sum.read;
           progress.step(s.source);
           try {
-            const DbaCovariance cov(s, engine);
-            writeKeyframeRows(csv, s, cov);
+            const DbaCovariance cov(s, engine, solver);
+            for (const auto& sink : sinks) sink->add(s, cov);
             ++sum.processed;
           } catch (const std::exception& e) {
             report(s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what());
@@ -135,10 +160,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
           report(what);
         });
     progress.clear();
-    csv.flush();
-    if (!csv) throw InputError(opt.csv_path + ": write failed");
-    csv.close();
-    csv_file.commit();
+    for (const auto& sink : sinks) sink->commit();
   } catch (const std::exception& e) {
     err << "dba-covariance: error: " << e.what() << '\n';
     return 1;

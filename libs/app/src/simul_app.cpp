@@ -5,7 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "dbacov/app/keyframe_table.h"
+#include "dbacov/app/csv_format.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/sim/synthetic_snapshot.h"
@@ -30,7 +30,7 @@ true projections plus Gaussian noise of variance 1/(weight_scale*w) per axis, so
   cli.add_option("--window", window, "Keyframes per snapshot graph")->check(CLI::Range(2, 1000));
   cli.add_option("--height", c.H, "Grid height (pixels)")->check(CLI::Range(2, 4096));
   cli.add_option("--width", c.W, "Grid width (pixels)")->check(CLI::Range(2, 4096));
-  cli.add_option("--edge-radius", c.edge_radius, "Link keyframes at most this far apart")->check(CLI::Range(1, 1000));
+  cli.add_option("--edge-radius", c.covisibility.edge_radius, "Link keyframes at most this far apart")->check(CLI::Range(1, 1000));
   cli.add_option("--weight-scale", c.weight_scale, "Information per unit confidence, px^-2")->check(CLI::PositiveNumber);
   cli.add_option("--seed", c.seed, "Random seed");
   try {
@@ -63,7 +63,7 @@ true projections plus Gaussian noise of variance 1/(weight_scale*w) per axis, so
     c.num_keyframes = snapshots + window - 1;
     io::writeFileAtomically(out_dir + "/groundtruth.tum", [&](std::ostream& os) {
       for (int k = 0; k < c.num_keyframes; ++k) {
-        const auto tq = poseToTQ(sim::syntheticTrajectoryPose(c, k));
+        const auto tq = poseToTQ(sim::trajectoryPose(c.trajectory, k));
         os << formatDouble(c.frame_interval * k);
         for (int i = 0; i < 7; ++i) os << ' ' << formatDouble(tq[i]);
         os << '\n';

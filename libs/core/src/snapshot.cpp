@@ -1,5 +1,6 @@
 #include "dbacov/core/snapshot.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -49,6 +50,17 @@ std::vector<int> Snapshot::graphKeyframes() const {
   for (int k = 0; k < numKeyframes(); ++k)
     if (used[k]) kf.push_back(k);
   return kf;
+}
+
+std::vector<std::pair<int, int>> Snapshot::relativePairs() const {
+  std::vector<std::pair<int, int>> pairs;
+  for (std::size_t e = 0; e < ii.size(); ++e)
+    pairs.emplace_back(static_cast<int>(std::min(ii[e], jj[e])), static_cast<int>(std::max(ii[e], jj[e])));
+  const std::vector<int> kf = graphKeyframes();
+  for (std::size_t a = 0; a + 1 < kf.size(); ++a) pairs.emplace_back(kf[a], kf[a + 1]);
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  return pairs;
 }
 
 void Snapshot::validate() const {

@@ -1,40 +1,11 @@
 #include "dbacov/sim/synthetic_snapshot.h"
 
 #include <cmath>
-#include <limits>
 #include <random>
 
 #include "dbacov/core/dba_factor.h"
 
 namespace dbacov::sim {
-
-double RoomScene::inverseDepth(const Eigen::Isometry3d& T_wc, double xn, double yn) const {
-  // Ray o + s·v (s = depth along the optical axis, since v's camera z component is 1).
-  const Eigen::Vector3d o = T_wc.translation();
-  const Eigen::Vector3d v = T_wc.linear() * Eigen::Vector3d(xn, yn, 1.0);
-  double s_min = std::numeric_limits<double>::infinity();
-  for (int axis = 0; axis < 3; ++axis) {
-    if (std::abs(v[axis]) < 1e-12) continue;
-    for (double wall : {min_corner[axis], max_corner[axis]}) {
-      const double s = (wall - o[axis]) / v[axis];
-      if (s > 1e-9) s_min = std::min(s_min, s);
-    }
-  }
-  return std::isfinite(s_min) ? 1.0 / s_min : 0.0;
-}
-
-Eigen::Isometry3d syntheticTrajectoryPose(const SyntheticSnapshotConfig& c, int k) {
-  // Camera looks along world +z; it translates along world +x with a small vertical wave and a
-  // slow yaw (about the camera's y axis, which points down) so that every DoF is excited.
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  const double t = static_cast<double>(k);
-  T.translation() << c.step * t, 0.05 * std::sin(0.7 * t), 0.03 * std::cos(0.5 * t);
-  T.linear() = (Eigen::AngleAxisd(c.yaw_amplitude * std::sin(0.4 * t), Eigen::Vector3d::UnitY()) *
-                Eigen::AngleAxisd(0.03 * std::sin(0.9 * t), Eigen::Vector3d::UnitX()) *
-                Eigen::AngleAxisd(0.02 * std::cos(0.6 * t), Eigen::Vector3d::UnitZ()))
-                   .toRotationMatrix();
-  return T;
-}
 
 SyntheticSnapshot generateSyntheticSnapshot(const SyntheticSnapshotConfig& c) {
   SyntheticSnapshot out;
@@ -51,19 +22,17 @@ SyntheticSnapshot generateSyntheticSnapshot(const SyntheticSnapshotConfig& c) {
   const PinholeIntrinsics K{c.fx, c.fy, c.cx, c.cy};
   const RoomScene room;
   for (int k = 0; k < N; ++k) {
-    out.T_wc_true.push_back(syntheticTrajectoryPose(c, k));
+    out.T_wc_true.push_back(trajectoryPose(c.trajectory, k));
     s.setT_wc(k, out.T_wc_true.back());
     s.tstamp[k] = c.frame_interval * k;
     for (int p = 0; p < HW; ++p)
       s.disps[static_cast<std::size_t>(k) * HW + p] = static_cast<float>(room.inverseDepth(
           out.T_wc_true[k], (p % W - c.cx) / c.fx, (p / W - c.cy) / c.fy));
   }
-  for (int i = c.first_keyframe; i < N; ++i)
-    for (int j = c.first_keyframe; j < N; ++j)
-      if (i != j && std::abs(i - j) <= c.edge_radius) {
-        s.ii.push_back(i);
-        s.jj.push_back(j);
-      }
+  for (const auto& [i, j] : selectEdges(out.T_wc_true, c.first_keyframe, room, K, H, W, c.covisibility)) {
+    s.ii.push_back(i);
+    s.jj.push_back(j);
+  }
 
   // Separate streams, so that switching the noise off leaves the weights unchanged.
   std::mt19937_64 rng(c.seed), rng_noise(c.seed ^ 0x9e3779b97f4a7c15ULL);

@@ -6,13 +6,15 @@
 #include <string>
 #include <vector>
 
+#include "dbacov/core/covariance.h"
 #include "dbacov/core/options.h"
 
 namespace dbacov::app {
 
 struct CovarianceAppOptions {
   std::vector<std::string> inputs;
-  std::string csv_path;
+  std::string csv_path, relative_csv_path, depth_sigma_dir;
+  std::string solver = "sparse", ordering = "auto";
   std::string preset = "droid";
   std::optional<double> weight_scale, gauge_sigma_rot, gauge_sigma_trans, near, far,
       min_depth_ratio;
@@ -22,6 +24,7 @@ struct CovarianceAppOptions {
   /// The engine options: the preset, then every option the user gave. Throws
   /// std::invalid_argument for values out of their domain or contradicting options.
   DbaOptions engineOptions() const;
+  SolverOptions solverOptions() const;
 };
 
 /// Runs the app with command-line arguments (argv[0] is the program name). Returns the exit code:

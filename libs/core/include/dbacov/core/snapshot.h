@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -69,6 +70,11 @@ struct Snapshot {
 
   /// Keyframes that take part in at least one edge, ascending (the "graph keyframes").
   std::vector<int> graphKeyframes() const;
+
+  /// The keyframe pairs whose relative pose the outputs report: every co-visible pair (an edge in
+  /// either direction) and every pair of consecutive graph keyframes, as (lower, higher) keyframe
+  /// index, sorted, without duplicates.
+  std::vector<std::pair<int, int>> relativePairs() const;
 
   /// Checks shapes, index ranges and values (SPEC §1). Throws InputError naming `source`, the key
   /// and what was expected: inconsistent shapes, ii/jj out of range or equal, non-finite poses or

@@ -1,10 +1,8 @@
-#include "dbacov/app/keyframe_table.h"
+#include "dbacov/app/csv_format.h"
 
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
-
-#include "dbacov/core/criteria.h"
 
 namespace dbacov::app {
 
@@ -37,23 +35,14 @@ std::string upperTriangleValues(const Matrix6d& M) {
   return s;
 }
 
-std::string keyframeCsvHeader() {
-  return "snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,"
-         "log10_det_trans," +
-         upperTriangleNames("cov_");
-}
-
-void writeKeyframeRows(std::ostream& os, const Snapshot& s, const DbaCovariance& cov) {
-  for (int k : cov.keyframes()) {
-    const Matrix6d Sigma = cov.marginal(k);
-    const UncertaintyCriteria c = computeCriteria(Sigma);
-    const Eigen::Matrix<double, 7, 1> tq = poseToTQ(cov.T_wc(k));
-    os << s.label() << ',' << k << ',' << formatDouble(s.tstamp[k]);
-    for (int i = 0; i < 7; ++i) os << ',' << formatDouble(tq[i]);
-    for (double v : {c.log10_det, c.d_opt, c.a_opt, c.e_opt, c.log10_det_rot, c.log10_det_trans})
-      os << ',' << formatDouble(v);
-    os << ',' << upperTriangleValues(Sigma) << '\n';
+std::string poseValues(const Eigen::Isometry3d& T) {
+  const Eigen::Matrix<double, 7, 1> tq = poseToTQ(T);
+  std::string s;
+  for (int i = 0; i < 7; ++i) {
+    if (i) s += ',';
+    s += formatDouble(tq[i]);
   }
+  return s;
 }
 
 }  // namespace dbacov::app

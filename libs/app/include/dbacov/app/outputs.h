@@ -1,0 +1,76 @@
+// The outputs of `dba-covariance`, one sink per option. Every sink receives each processed
+// snapshot with its covariances and makes its files appear atomically: a file is either complete
+// or absent (the previous version stays untouched until commit()).
+#pragma once
+
+#include <fstream>
+#include <memory>
+#include <string>
+
+#include "dbacov/core/covariance.h"
+#include "dbacov/core/snapshot.h"
+#include "dbacov/io/atomic_file.h"
+
+namespace dbacov::app {
+
+class OutputSink {
+ public:
+  virtual ~OutputSink() = default;
+  /// Adds one snapshot's results. Throws InputError on I/O failure.
+  virtual void add(const Snapshot& snapshot, const DbaCovariance& cov) = 0;
+  /// Makes the output appear (the last step of a run). Throws InputError on I/O failure.
+  virtual void commit() = 0;
+  /// True when the sink needs per-pixel depth variances (SolverOptions::depth_variances).
+  virtual bool needsDepthVariances() const { return false; }
+};
+
+/// A text table streamed into an atomic output file.
+class CsvSink : public OutputSink {
+ public:
+  CsvSink(const std::string& path, const std::string& header);
+  void commit() override;
+
+ protected:
+  std::ostream& os() { return os_; }
+
+ private:
+  io::AtomicOutputFile file_;
+  std::ofstream os_;
+};
+
+/// `--csv`: one row per (snapshot, graph keyframe), header keyframeCsvHeader().
+class KeyframeCsvSink final : public CsvSink {
+ public:
+  explicit KeyframeCsvSink(const std::string& path);
+  void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
+};
+
+/// `--relative-csv`: one row per (snapshot, pair of Snapshot::relativePairs()), header
+/// relativeCsvHeader(); relative pose T_wc_from⁻¹ T_wc_to and its tangent covariance.
+class RelativeCsvSink final : public CsvSink {
+ public:
+  explicit RelativeCsvSink(const std::string& path);
+  void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
+};
+
+/// `--depth-sigma DIR`: DIR/<snapshot>_<keyframe>.npy per source keyframe, float32 H×W standard
+/// deviation of the inverse depth, NaN where a pixel carries no information. Each file is written
+/// atomically as soon as its snapshot is processed.
+class DepthSigmaSink final : public OutputSink {
+ public:
+  explicit DepthSigmaSink(const std::string& dir);
+  void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
+  void commit() override {}
+  bool needsDepthVariances() const override { return true; }
+
+ private:
+  std::string dir_;
+};
+
+/// snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,
+/// log10_det_trans,cov_00,...,cov_55
+std::string keyframeCsvHeader();
+/// snapshot,from,to,tx,ty,tz,qx,qy,qz,qw,cov_00,...,cov_55
+std::string relativeCsvHeader();
+
+}  // namespace dbacov::app

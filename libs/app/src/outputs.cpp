@@ -1,0 +1,72 @@
+#include "dbacov/app/outputs.h"
+
+#include <filesystem>
+
+#include "dbacov/app/csv_format.h"
+#include "dbacov/core/criteria.h"
+#include "dbacov/io/npy.h"
+
+namespace dbacov::app {
+
+std::string keyframeCsvHeader() {
+  return "snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,"
+         "log10_det_trans," +
+         upperTriangleNames("cov_");
+}
+
+std::string relativeCsvHeader() {
+  return "snapshot,from,to,tx,ty,tz,qx,qy,qz,qw," + upperTriangleNames("cov_");
+}
+
+CsvSink::CsvSink(const std::string& path, const std::string& header)
+    : file_(path), os_(file_.writePath(), std::ios::binary) {
+  if (!os_) throw InputError(path + ": cannot open the temporary output for writing");
+  os_ << header << '\n';
+}
+
+void CsvSink::commit() {
+  os_.flush();
+  if (!os_) throw InputError(file_.finalPath() + ": write failed");
+  os_.close();
+  file_.commit();
+}
+
+KeyframeCsvSink::KeyframeCsvSink(const std::string& path) : CsvSink(path, keyframeCsvHeader()) {}
+
+void KeyframeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
+  for (int k : cov.keyframes()) {
+    const Matrix6d Sigma = cov.marginal(k);
+    const UncertaintyCriteria c = computeCriteria(Sigma);
+    os() << s.label() << ',' << k << ',' << formatDouble(s.tstamp[k]) << ','
+         << poseValues(cov.T_wc(k));
+    for (double v : {c.log10_det, c.d_opt, c.a_opt, c.e_opt, c.log10_det_rot, c.log10_det_trans})
+      os() << ',' << formatDouble(v);
+    os() << ',' << upperTriangleValues(Sigma) << '\n';
+  }
+}
+
+RelativeCsvSink::RelativeCsvSink(const std::string& path) : CsvSink(path, relativeCsvHeader()) {}
+
+void RelativeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
+  for (const auto& [a, b] : s.relativePairs())
+    os() << s.label() << ',' << a << ',' << b << ','
+         << poseValues(cov.T_wc(a).inverse() * cov.T_wc(b)) << ','
+         << upperTriangleValues(cov.relative(a, b)) << '\n';
+}
+
+DepthSigmaSink::DepthSigmaSink(const std::string& dir) : dir_(dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir_, ec);
+  if (ec || !std::filesystem::is_directory(dir_))
+    throw InputError(dir_ + ": cannot create the depth-sigma directory" + (ec ? ": " + ec.message() : ""));
+}
+
+void DepthSigmaSink::add(const Snapshot& s, const DbaCovariance& cov) {
+  const std::size_t H = s.H, W = s.W;
+  for (int k : cov.sourceKeyframes())
+    io::writeNpyFileAtomically(
+        dir_ + "/" + std::to_string(s.label()) + "_" + std::to_string(k) + ".npy",
+        io::makeNpy(cov.inverseDepthSigma(k), {H, W}));
+}
+
+}  // namespace dbacov::app
