@@ -14,7 +14,7 @@ namespace dbacov::app {
 namespace {
 
 constexpr const char* kConventions = R"(
-Conventions (see SPEC.md):
+Conventions (README.md has the details):
   Input snapshots are DROID-SLAM DBA dumps (.npz): poses T_cw [tx ty tz qx qy qz qw], inverse
   depths, targets (x = column, y = row) and confidences per edge and pixel.
   Output poses are camera-to-world T_wc [tx ty tz qx qy qz qw]. Covariances are 6x6 over the
@@ -23,7 +23,7 @@ Conventions (see SPEC.md):
   weight_scale * diag(w_x, w_y) px^-2.
   Presets: droid = weight scale 0.001, drop pixels with depth ratio z_j*d < 0.25, gauge two-pose
   hard-fixed; paper = weight scale 0.1, near 0.25 / far 2, gauge two-pose with sigmas 1 deg and
-  0.05. Options given after the preset override it.
+  0.05. Options given explicitly override the preset.
   Gauge keyframes are the two lowest-indexed keyframes in 'ii'. A hard-fixed keyframe has zero
   covariance and log10_det = -inf.
   --relative-csv pairs: every co-visible pair (from the lower to the higher keyframe index) and

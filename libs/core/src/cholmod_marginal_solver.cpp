@@ -149,6 +149,8 @@ class CholmodMarginalSolver final : public MarginalSolver {
     return Eigen::Map<const Eigen::VectorXd>(static_cast<const double*>(X->x), n_);
   }
 
+  std::size_t factorEntries() const override { return L_ ? L_->xsize : 0; }
+
   std::string name() const override { return "cholmod"; }
 
  private:

@@ -30,6 +30,10 @@ class DenseMarginalSolver final : public MarginalSolver {
 
   Eigen::VectorXd solve(const Eigen::VectorXd& x) override { return llt_.solve(x); }
 
+  std::size_t factorEntries() const override {
+    return static_cast<std::size_t>(Sigma_.rows()) * Sigma_.rows();
+  }
+
   std::string name() const override { return "dense"; }
 
  private:

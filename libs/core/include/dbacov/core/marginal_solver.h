@@ -44,6 +44,10 @@ class MarginalSolver {
   /// Σ x for a vector x (one pair of triangular solves).
   virtual Eigen::VectorXd solve(const Eigen::VectorXd& x) = 0;
 
+  /// Stored entries of the factor (nnz(L) for the sparse solver, n² for the dense one): the
+  /// selected inverse needs as many again.
+  virtual std::size_t factorEntries() const = 0;
+
   /// Short name for reports ("dense", "cholmod").
   virtual std::string name() const = 0;
 };
