@@ -7,5 +7,8 @@ scripts/setup.sh
 out=build/demo
 rm -rf "$out"
 build/bin/simul-dba -o "$out" --snapshots 5 --seed 1
-build/bin/dba-covariance -i "$out" --csv "$out/covariances.csv" --weight-scale 4
-echo "demo: $(($(wc -l < "$out/covariances.csv") - 1)) keyframe covariances in $out/covariances.csv"
+build/bin/droid2rawlog -i "$out" -o "$out/snapshots.rawlog"
+build/bin/dba-covariance -i "$out/snapshots.rawlog" --weight-scale 4 \
+  -o "$out/poses.rawlog" --emit final --csv "$out/covariances.csv" --relative-csv "$out/relative.csv"
+echo "demo: $(($(wc -l < "$out/covariances.csv") - 1)) keyframe covariances in $out/covariances.csv,"
+echo "      MRPT poses with covariance in $out/poses.rawlog (rawlog-edit --info -i $out/poses.rawlog)"

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "app_runner.h"
+#include "fixtures.h"
 #include "dbacov/app/covariance_app.h"
 #include "dbacov/app/outputs.h"
 #include "dbacov/core/covariance.h"
@@ -28,18 +29,7 @@ AppResult run(const std::vector<std::string>& args) {
 }
 
 sim::SyntheticSnapshot writeSynthetic(const std::string& path, std::uint64_t seed, std::int64_t id) {
-  sim::SyntheticSnapshotConfig c;
-  c.num_keyframes = 6;
-  c.H = 8;
-  c.W = 10;
-  c.fx = c.fy = 9;
-  c.cx = 4.5;
-  c.cy = 3.5;
-  c.seed = seed;
-  c.id = id;
-  auto syn = sim::generateSyntheticSnapshot(c);
-  io::saveSnapshotNpz(path, syn.snapshot);
-  return syn;
+  return testing::writeTinySnapshot(path, seed, id);
 }
 
 bool contains(const std::string& hay, const std::string& needle) {

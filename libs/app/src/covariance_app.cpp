@@ -9,6 +9,7 @@
 #include "dbacov/app/progress.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/covariance.h"
+#include "dbacov/mrpt/rawlog_io.h"
 
 namespace dbacov::app {
 namespace {
@@ -30,6 +31,11 @@ Conventions (README.md has the details):
   every pair of consecutive graph keyframes; pose T_wc_from^-1 * T_wc_to, same tangent.
   --depth-sigma files: DIR/<snapshot>_<keyframe>.npy, float32 HxW standard deviation of the
   inverse depth of each pixel of each source keyframe; NaN where a pixel carries no information.
+  -o rawlog: gz-compressed, observations-only; one CObservationRobotPose per emitted keyframe,
+  pose = CPose3DPDFGaussian with mean T_wc and covariance over MRPT's [x y z yaw pitch roll]
+  converted exactly (to first order) from the tangent one; timestamp = the keyframe's time
+  ('timestamps_s', or tstamp / --fps). --emit final identifies keyframes by their tstamp and
+  writes them in time order. Inputs may be rawlogs of DBA snapshots (droid2rawlog).
   All outputs are written atomically (temporary file, then rename).
 Exit status: 0 success, 1 when any snapshot or output failed (the others are still written),
 2 on bad usage.)";
@@ -87,6 +93,12 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   cli.add_option("-i,--input", opt.inputs, "Snapshot .npz file or directory of them (name order); repeatable")
       ->required();
   cli.add_option("--csv", opt.csv_path, "Write one row per (snapshot, graph keyframe): pose, criteria, covariance");
+  cli.add_option("-o,--output", opt.rawlog_path, "Write a rawlog of CObservationRobotPose (CPose3DPDFGaussian) per emitted keyframe");
+  cli.add_option("--emit", opt.emit, "Keyframes in the rawlog: latest (newest of each snapshot), all, final (each once, from its last snapshot)")
+      ->check(CLI::IsMember({"latest", "all", "final"}));
+  cli.add_option("--label", opt.label, "sensorLabel of the rawlog observations");
+  cli.add_option("--fps", opt.fps, "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
+      ->check(CLI::PositiveNumber);
   cli.add_option("--relative-csv", opt.relative_csv_path, "Write one row per (snapshot, keyframe pair): relative pose and covariance");
   cli.add_option("--depth-sigma", opt.depth_sigma_dir, "Write per-pixel inverse-depth sigma maps (.npy) into this directory");
   cli.add_option("--solver", opt.solver, "sparse (CHOLMOD, default) or dense (reference, small graphs)")
@@ -118,8 +130,9 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   DbaOptions engine;
   try {
     engine = opt.engineOptions();
-    if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty())
-      throw std::invalid_argument("no output requested: give --csv, --relative-csv or --depth-sigma");
+    if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
+        opt.rawlog_path.empty())
+      throw std::invalid_argument("no output requested: give -o, --csv, --relative-csv or --depth-sigma");
   } catch (const std::invalid_argument& e) {
     err << "dba-covariance: " << e.what() << "\nRun with --help for usage.\n";
     return 2;
@@ -134,10 +147,12 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       sinks.push_back(std::make_unique<RelativeCsvSink>(opt.relative_csv_path));
     if (!opt.depth_sigma_dir.empty())
       sinks.push_back(std::make_unique<DepthSigmaSink>(opt.depth_sigma_dir));
+    if (!opt.rawlog_path.empty())
+      sinks.push_back(std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.label, parseEmitMode(opt.emit)));
     SolverOptions solver = opt.solverOptions();
     for (const auto& sink : sinks) solver.depth_variances |= sink->needsDepthVariances();
 
-    Progress progress(err, inputs.size(), !opt.quiet);
+    Progress progress(err, inputs.knownCount(), !opt.quiet);
     auto report = [&](const std::string& what) {
       progress.clear();
       err << "dba-covariance: error: " << what << '\n';
@@ -148,6 +163,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
           ++sum.read;
           progress.step(s.source);
           try {
+            if (opt.fps) deriveKeyframeTimes(s, *opt.fps);
+            for (const auto& sink : sinks) sink->check(s);
             const DbaCovariance cov(s, engine, solver);
             for (const auto& sink : sinks) sink->add(s, cov);
             ++sum.processed;
@@ -155,7 +172,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
             report(s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what());
           }
         },
-        [&](const std::string&, const std::string& what) {
+        [&](const std::string& what) {
           ++sum.read;
           report(what);
         });

@@ -5,6 +5,10 @@
 #include "dbacov/app/csv_format.h"
 #include "dbacov/core/criteria.h"
 #include "dbacov/io/npy.h"
+#include "dbacov/mrpt/pose_conversion.h"
+#include "dbacov/mrpt/rawlog_io.h"
+
+#include <mrpt/obs/CObservationRobotPose.h>
 
 namespace dbacov::app {
 
@@ -67,6 +71,58 @@ void DepthSigmaSink::add(const Snapshot& s, const DbaCovariance& cov) {
     io::writeNpyFileAtomically(
         dir_ + "/" + std::to_string(s.label()) + "_" + std::to_string(k) + ".npy",
         io::makeNpy(cov.inverseDepthSigma(k), {H, W}));
+}
+
+EmitMode parseEmitMode(const std::string& name) {
+  if (name == "latest") return EmitMode::Latest;
+  if (name == "all") return EmitMode::All;
+  if (name == "final") return EmitMode::Final;
+  throw std::invalid_argument("unknown emit mode '" + name + "', expected latest, all or final");
+}
+
+PoseRawlogSink::PoseRawlogSink(const std::string& path, std::string label, EmitMode mode)
+    : writer_(std::make_unique<mrpt_bridge::RawlogWriter>(path)), label_(std::move(label)), mode_(mode) {}
+
+PoseRawlogSink::~PoseRawlogSink() = default;
+
+void PoseRawlogSink::check(const Snapshot& s) const {
+  keyframeTime(s, 0);  // throws when the snapshot has no keyframe times
+}
+
+void PoseRawlogSink::add(const Snapshot& s, const DbaCovariance& cov) {
+  auto record = [&](int k) {
+    return Record{keyframeTime(s, k), cov.T_wc(k), cov.marginal(k)};
+  };
+  switch (mode_) {
+    case EmitMode::Latest:
+      write(record(newestKeyframe(s)));
+      break;
+    case EmitMode::All:
+      for (int k : cov.keyframes()) write(record(k));
+      break;
+    case EmitMode::Final:
+      for (int k : cov.keyframes()) final_.insert_or_assign(s.tstamp[k], record(k));
+      break;
+  }
+}
+
+void PoseRawlogSink::write(const Record& r) {
+  mrpt::obs::CObservationRobotPose obs;
+  obs.pose = mrpt_bridge::toPoseGaussian(r.T_wc, r.Sigma);
+  obs.timestamp = mrpt::Clock::fromDouble(r.time);
+  obs.sensorLabel = label_;
+  writer_->write(obs);
+}
+
+void PoseRawlogSink::commit() {
+  if (mode_ == EmitMode::Final) {
+    std::vector<const Record*> ordered;
+    for (const auto& [tstamp, r] : final_) ordered.push_back(&r);
+    std::stable_sort(ordered.begin(), ordered.end(),
+                     [](const Record* a, const Record* b) { return a->time < b->time; });
+    for (const Record* r : ordered) write(*r);
+  }
+  writer_->commit();
 }
 
 }  // namespace dbacov::app

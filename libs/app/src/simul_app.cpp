@@ -20,9 +20,10 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
   c.W = 32;
   CLI::App cli{"simul-dba: synthetic DROID-like DBA snapshots with ground truth", "simul-dba"};
   cli.footer(R"(
-Writes DIR/snapshot_NNNN.npz (SPEC §1 format) and DIR/groundtruth.tum (t tx ty tz qx qy qz qw,
-camera-to-world). Snapshot s holds keyframes 0..s+W-1 in 'poses' and edges among its last W
-keyframes, like DROID-SLAM's sliding window. The stored state is the ground truth; targets are
+Writes DIR/snapshot_NNNN.npz (the DROID snapshot format, with keyframe times 'timestamps_s' =
+start + tstamp / fps) and DIR/groundtruth.tum (t tx ty tz qx qy qz qw, camera-to-world, t in seconds).
+Snapshot s holds keyframes 0..s+W-1 in 'poses' and edges among its last W keyframes, like
+DROID-SLAM's sliding window. The stored state is the ground truth; targets are
 true projections plus Gaussian noise of variance 1/(weight_scale*w) per axis, so
 `dba-covariance --weight-scale X` with the same X is consistent.)");
   cli.add_option("-o,--out-dir", out_dir, "Output directory (created if missing)")->required();
@@ -33,6 +34,9 @@ true projections plus Gaussian noise of variance 1/(weight_scale*w) per axis, so
   cli.add_option("--edge-radius", c.covisibility.edge_radius, "Link keyframes at most this far apart")->check(CLI::Range(1, 1000));
   cli.add_option("--weight-scale", c.weight_scale, "Information per unit confidence, px^-2")->check(CLI::PositiveNumber);
   cli.add_option("--seed", c.seed, "Random seed");
+  double fps = 20.0, start_time = 1.7e9;
+  cli.add_option("--fps", fps, "Camera rate: keyframe times 'timestamps_s' = start + tstamp / fps")->check(CLI::PositiveNumber);
+  cli.add_option("--start-time", start_time, "Time of image 0, seconds since 1970 (MRPT treats 0 as 'no time')");
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -55,7 +59,9 @@ true projections plus Gaussian noise of variance 1/(weight_scale*w) per axis, so
       c.first_keyframe = s;
       c.seed = seed + static_cast<std::uint64_t>(s);
       c.id = s;
-      const sim::SyntheticSnapshot syn = sim::generateSyntheticSnapshot(c);
+      sim::SyntheticSnapshot syn = sim::generateSyntheticSnapshot(c);
+      deriveKeyframeTimes(syn.snapshot, fps);
+      for (double& t : *syn.snapshot.timestamps_s) t += start_time;
       char name[64];
       std::snprintf(name, sizeof name, "/snapshot_%04d.npz", s);
       io::saveSnapshotNpz(out_dir + name, syn.snapshot);
@@ -64,7 +70,7 @@ true projections plus Gaussian noise of variance 1/(weight_scale*w) per axis, so
     io::writeFileAtomically(out_dir + "/groundtruth.tum", [&](std::ostream& os) {
       for (int k = 0; k < c.num_keyframes; ++k) {
         const auto tq = poseToTQ(sim::trajectoryPose(c.trajectory, k));
-        os << formatDouble(c.frame_interval * k);
+        os << formatDouble(start_time + c.frame_interval * k / fps);
         for (int i = 0; i < 7; ++i) os << ' ' << formatDouble(tq[i]);
         os << '\n';
       }

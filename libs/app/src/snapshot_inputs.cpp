@@ -4,9 +4,12 @@
 
 #include "dbacov/core/errors.h"
 #include "dbacov/io/snapshot_npz.h"
+#include "dbacov/mrpt/rawlog_io.h"
 
 namespace dbacov::app {
 namespace fs = std::filesystem;
+
+bool isRawlogPath(const std::string& path) { return fs::path(path).extension() == ".rawlog"; }
 
 SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {
   for (const std::string& p : paths) {
@@ -17,23 +20,51 @@ SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {
       const std::vector<std::string> found = io::listNpzFiles(p);
       if (found.empty()) throw InputError(p + ": directory holds no .npz snapshot");
       files_.insert(files_.end(), found.begin(), found.end());
-    } else if (fs::path(p).extension() == ".npz") {
+    } else if (fs::path(p).extension() == ".npz" || isRawlogPath(p)) {
       files_.push_back(p);
     } else {
-      throw InputError(p + ": not a snapshot file (expected a .npz file or a directory of them)");
+      throw InputError(p + ": not a snapshot input (expected a .npz file, a .rawlog of DBA "
+                           "snapshots, or a directory of .npz files)");
     }
   }
 }
 
-void SnapshotInputs::forEach(
-    const std::function<void(Snapshot&)>& process,
-    const std::function<void(const std::string&, const std::string&)>& on_error) const {
-  for (std::size_t n = 0; n < files_.size(); ++n) {
+std::size_t SnapshotInputs::knownCount() const {
+  for (const auto& f : files_)
+    if (isRawlogPath(f)) return 0;
+  return files_.size();
+}
+
+void SnapshotInputs::forEach(const std::function<void(Snapshot&)>& process,
+                             const std::function<void(const std::string&)>& on_error) const {
+  std::int64_t index = 0;
+  for (const std::string& file : files_) {
+    if (isRawlogPath(file)) {
+      // Indices continue after the last snapshot seen, even when a bad entry ends the file.
+      const std::int64_t first = index;
+      std::size_t seen = 0;
+      try {
+        mrpt_bridge::forEachRawlogSnapshot(
+            file, first,
+            [&](Snapshot& s) {
+              ++seen;
+              process(s);
+            },
+            [&](const InputError& e) {
+              ++seen;
+              on_error(e.what());
+            });
+      } catch (const InputError& e) {
+        on_error(e.what());
+      }
+      index = first + static_cast<std::int64_t>(seen);
+      continue;
+    }
     Snapshot s;
     try {
-      s = io::loadSnapshotNpz(files_[n], static_cast<std::int64_t>(n));
+      s = io::loadSnapshotNpz(file, index++);
     } catch (const std::exception& e) {
-      on_error(files_[n], e.what());
+      on_error(e.what());
       continue;
     }
     process(s);

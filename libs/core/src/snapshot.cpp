@@ -132,4 +132,20 @@ void Snapshot::validate() const {
     fail(*this, "key 'timestamps_s' has a non-finite value");
 }
 
+double keyframeTime(const Snapshot& s, int k) {
+  if (!s.timestamps_s)
+    throw InputError("no keyframe times (key 'timestamps_s'): give --fps to derive them from "
+                     "'tstamp'");
+  return (*s.timestamps_s)[k];
+}
+
+int newestKeyframe(const Snapshot& s) { return s.graphKeyframes().back(); }
+
+void deriveKeyframeTimes(Snapshot& s, double fps) {
+  if (s.timestamps_s) return;
+  std::vector<double> t(s.tstamp.size());
+  for (std::size_t k = 0; k < t.size(); ++k) t[k] = s.tstamp[k] / fps;
+  s.timestamps_s = std::move(t);
+}
+
 }  // namespace dbacov

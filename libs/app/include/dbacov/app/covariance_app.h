@@ -13,7 +13,9 @@ namespace dbacov::app {
 
 struct CovarianceAppOptions {
   std::vector<std::string> inputs;
-  std::string csv_path, relative_csv_path, depth_sigma_dir;
+  std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path;
+  std::string emit = "latest", label = "DBA_COVARIANCE";
+  std::optional<double> fps;
   std::string solver = "sparse", ordering = "auto";
   std::string preset = "droid";
   std::optional<double> weight_scale, gauge_sigma_rot, gauge_sigma_trans, near, far,

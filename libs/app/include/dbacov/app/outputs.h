@@ -4,6 +4,7 @@
 #pragma once
 
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -11,11 +12,18 @@
 #include "dbacov/core/snapshot.h"
 #include "dbacov/io/atomic_file.h"
 
+namespace dbacov::mrpt_bridge {
+class RawlogWriter;
+}
+
 namespace dbacov::app {
 
 class OutputSink {
  public:
   virtual ~OutputSink() = default;
+  /// Checks, before anything is computed or written, that the sink can take this snapshot
+  /// (e.g. it has keyframe times). Throws InputError naming the snapshot otherwise.
+  virtual void check(const Snapshot& /*snapshot*/) const {}
   /// Adds one snapshot's results. Throws InputError on I/O failure.
   virtual void add(const Snapshot& snapshot, const DbaCovariance& cov) = 0;
   /// Makes the output appear (the last step of a run). Throws InputError on I/O failure.
@@ -65,6 +73,38 @@ class DepthSigmaSink final : public OutputSink {
 
  private:
   std::string dir_;
+};
+
+enum class EmitMode {
+  Latest,  ///< the newest graph keyframe of each snapshot (what an online fuser sees)
+  All,     ///< every graph keyframe of every snapshot
+  Final,   ///< each keyframe once (identified by its tstamp), from the last snapshot containing it
+};
+/// "latest", "all", "final"; throws std::invalid_argument otherwise.
+EmitMode parseEmitMode(const std::string& name);
+
+/// `-o poses.rawlog`: CObservationRobotPose with a CPose3DPDFGaussian (mean T_wc, covariance
+/// converted from the tangent, SPEC §6) per emitted keyframe, timestamped with the keyframe time.
+class PoseRawlogSink final : public OutputSink {
+ public:
+  PoseRawlogSink(const std::string& path, std::string label, EmitMode mode);
+  ~PoseRawlogSink() override;
+  void check(const Snapshot& snapshot) const override;
+  void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
+  void commit() override;
+
+ private:
+  struct Record {
+    double time;
+    Eigen::Isometry3d T_wc;
+    Matrix6d Sigma;
+  };
+  void write(const Record& r);
+
+  std::unique_ptr<mrpt_bridge::RawlogWriter> writer_;
+  std::string label_;
+  EmitMode mode_;
+  std::map<double, Record> final_;  ///< Final mode: tstamp → newest record
 };
 
 /// snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,

@@ -83,4 +83,14 @@ struct Snapshot {
   void validate() const;
 };
 
+/// Seconds of keyframe k: timestamps_s[k]. Throws InputError when the snapshot has no keyframe
+/// times (callers add the snapshot's name).
+double keyframeTime(const Snapshot& s, int k);
+
+/// The newest graph keyframe (highest index; DROID appends keyframes in time order).
+int newestKeyframe(const Snapshot& s);
+
+/// Fills timestamps_s = tstamp / fps when absent (DROID's tstamp is the image index).
+void deriveKeyframeTimes(Snapshot& s, double fps);
+
 }  // namespace dbacov

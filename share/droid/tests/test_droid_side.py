@@ -1,0 +1,447 @@
+"""Tests of the DROID-SLAM side (share/droid): dbacov_dump.dump_dba_snapshot with numpy-backed fakes
+of DROID's DepthVideo / FactorGraph, and the pickle converter's layouts, errors and exit codes.
+
+Needs numpy only (torch is not used). Run: PYTHONPATH=share/droid python3 -m unittest discover -s
+share/droid/tests -v
+"""
+
+import contextlib
+import os
+import pickle
+import subprocess
+import sys
+import tempfile
+import types
+import unittest
+import zipfile
+
+import numpy as np
+
+import convert_pickle_dumps
+import dbacov_dump
+
+CONVERTER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
+                         "convert_pickle_dumps.py")
+SPEC = {"poses": np.float32, "disps": np.float32, "intrinsics": np.float32, "ii": np.int64,
+        "jj": np.int64, "target": np.float32, "weight": np.float32, "tstamp": np.float64,
+        "timestamps_s": np.float64, "id": np.int64}
+
+
+class FakeTensor:
+    """The part of a torch tensor that the dump uses: indexing, comparisons, &, and
+    .detach().cpu().numpy() (which records that it was called)."""
+
+    conversions = 0
+
+    def __init__(self, a):
+        self._a = np.asarray(a)
+
+    @staticmethod
+    def _raw(x):
+        if isinstance(x, tuple):
+            return tuple(FakeTensor._raw(v) for v in x)
+        return x._a if isinstance(x, FakeTensor) else x
+
+    def __getitem__(self, key):
+        return FakeTensor(self._a[self._raw(key)])
+
+    def __ge__(self, other):
+        return FakeTensor(self._a >= other)
+
+    def __and__(self, other):
+        return FakeTensor(self._a & self._raw(other))
+
+    @property
+    def shape(self):
+        return self._a.shape
+
+    def detach(self):
+        return self
+
+    def cpu(self):
+        return self
+
+    def numpy(self):
+        FakeTensor.conversions += 1
+        return self._a
+
+
+class FakeVideo:
+    """DROID's DepthVideo: buffers larger than the N = counter.value keyframes in use."""
+
+    def __init__(self, n, capacity, h, w, rng, wrap=FakeTensor):
+        self.counter = types.SimpleNamespace(value=n)
+        poses = rng.normal(size=(capacity, 7)).astype(np.float32)
+        poses[:, 3:] /= np.linalg.norm(poses[:, 3:], axis=1, keepdims=True)
+        poses[n:] = np.nan  # beyond N: never read
+        intr = np.tile(np.array([60.5, 61.25, 3.5, 2.25], np.float32), (capacity, 1))
+        intr[n:] = 0  # beyond N: different, must not matter
+        self.poses = wrap(poses)
+        self.disps = wrap(rng.uniform(0.1, 2.0, size=(capacity, h, w)).astype(np.float32))
+        self.intrinsics = wrap(intr)
+        self.tstamp = wrap(np.arange(capacity, dtype=np.float32) * 3)
+        self.locked = 0
+
+    @contextlib.contextmanager
+    def get_lock(self):
+        self.locked += 1
+        yield
+
+
+def pixel_planes(e_count, h, w, rng):
+    """Targets as (x, y) planes: the pixel's own column/row plus a small flow, and weights."""
+    y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+    tx = x[None] + rng.uniform(-0.4, 0.4, size=(e_count, h, w)).astype(np.float32)
+    ty = y[None] + rng.uniform(-0.4, 0.4, size=(e_count, h, w)).astype(np.float32)
+    wx = rng.uniform(0, 1, size=(e_count, h, w)).astype(np.float32)
+    wy = rng.uniform(0, 1, size=(e_count, h, w)).astype(np.float32)
+    return tx, ty, wx, wy
+
+
+def channel_last(px, py):
+    """(E,H,W) planes -> DROID's (1,E,H,W,2), last axis (x, y)."""
+    return np.stack([px, py], axis=-1)[None]
+
+
+class FakeGraph:
+    def __init__(self, ii, jj, tx, ty, wx, wy, wrap=FakeTensor):
+        self.ii, self.jj = wrap(np.asarray(ii, np.int64)), wrap(np.asarray(jj, np.int64))
+        self.target, self.weight = wrap(channel_last(tx, ty)), wrap(channel_last(wx, wy))
+
+
+class DumpTest(unittest.TestCase):
+    N, CAP, H, W = 5, 8, 4, 6
+    II, JJ = [1, 2, 2, 3, 4, 1], [2, 1, 3, 4, 3, 3]
+
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.dir = self.tmp.name
+        self.rng = np.random.default_rng(7)
+        self.planes = pixel_planes(len(self.II), self.H, self.W, self.rng)
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def make(self, wrap=FakeTensor):
+        video = FakeVideo(self.N, self.CAP, self.H, self.W, self.rng, wrap)
+        return video, FakeGraph(self.II, self.JJ, *self.planes, wrap=wrap)
+
+    def test_writes_exactly_the_spec_keys_dtypes_shapes_and_channel_order(self):
+        for wrap in (FakeTensor, np.asarray):
+            video, graph = self.make(wrap)
+            path = os.path.join(self.dir, "snap.npz")
+            before = FakeTensor.conversions
+            self.assertEqual(dbacov_dump.dump_dba_snapshot(path, video, graph, 42), path)
+            if wrap is FakeTensor:  # every array went through .detach().cpu().numpy()
+                self.assertEqual(FakeTensor.conversions - before, 8)
+            self.assertEqual(video.locked, 1)
+            n, e, h, w = self.N, len(self.II), self.H, self.W
+            with np.load(path) as z:
+                self.assertEqual(sorted(z.files), sorted(k for k in SPEC if k != "timestamps_s"))
+                for k in z.files:
+                    self.assertEqual(z[k].dtype, SPEC[k], k)
+                shapes = {"poses": (n, 7), "disps": (n, h, w), "intrinsics": (4,), "ii": (e,),
+                          "jj": (e,), "target": (e, 2, h, w), "weight": (e, 2, h, w),
+                          "tstamp": (n,), "id": ()}
+                self.assertEqual({k: z[k].shape for k in z.files}, shapes)
+                src = {k: np.asarray(getattr(video, k)._a if wrap is FakeTensor
+                                     else getattr(video, k)) for k in ("poses", "disps", "tstamp")}
+                np.testing.assert_array_equal(z["poses"], src["poses"][:n])
+                np.testing.assert_array_equal(z["disps"], src["disps"][:n])
+                np.testing.assert_array_equal(z["tstamp"], src["tstamp"][:n])
+                np.testing.assert_array_equal(z["intrinsics"], [60.5, 61.25, 3.5, 2.25])
+                np.testing.assert_array_equal(z["ii"], self.II)
+                np.testing.assert_array_equal(z["jj"], self.JJ)
+                self.assertEqual(int(z["id"]), 42)
+                tx, ty, wx, wy = self.planes
+                np.testing.assert_array_equal(z["target"][:, 0], tx)  # channel 0 = x
+                np.testing.assert_array_equal(z["target"][:, 1], ty)
+                np.testing.assert_array_equal(z["weight"][:, 0], wx)
+                np.testing.assert_array_equal(z["weight"][:, 1], wy)
+                # Independent of the fixture: channel 0 is near the column, channel 1 the row.
+                cols, rows = np.meshgrid(np.arange(w), np.arange(h))
+                self.assertLess(np.abs(z["target"][:, 0] - cols).max(), 0.5)
+                self.assertLess(np.abs(z["target"][:, 1] - rows).max(), 0.5)
+                self.assertTrue(z["target"].flags.c_contiguous)
+            self.assertEqual(os.listdir(self.dir), ["snap.npz"])  # no temporary left
+
+    def test_timestamps_and_stored_archive(self):
+        video, graph = self.make()
+        path = os.path.join(self.dir, "s.npz")
+        secs = np.linspace(0.5, 2.5, self.N)
+        dbacov_dump.dump_dba_snapshot(path, video, graph, 3, timestamps_s=secs, compressed=False)
+        with zipfile.ZipFile(path) as zf:
+            self.assertTrue(all(i.compress_type == zipfile.ZIP_STORED for i in zf.infolist()))
+        with np.load(path) as z:
+            self.assertEqual(z["timestamps_s"].dtype, np.float64)
+            np.testing.assert_array_equal(z["timestamps_s"], secs)
+        with self.assertRaisesRegex(ValueError, "timestamps_s"):
+            dbacov_dump.dump_dba_snapshot(path, video, graph, 3, timestamps_s=secs[:-1])
+
+    def test_inconsistent_intrinsics_raise_and_write_nothing(self):
+        video, graph = self.make()
+        video.intrinsics._a[3, 2] += 0.5
+        path = os.path.join(self.dir, "s.npz")
+        with self.assertRaisesRegex(ValueError, r"intrinsics differ.*row 3"):
+            dbacov_dump.dump_dba_snapshot(path, video, graph, 1)
+        self.assertEqual(os.listdir(self.dir), [])
+
+    def test_edge_beyond_counter_raises(self):
+        video, graph = self.make()
+        graph.jj._a[2] = self.N  # a keyframe slot beyond counter.value
+        with self.assertRaisesRegex(ValueError, r"'jj': edge 2 names keyframe 5, outside \[0, 5\)"):
+            dbacov_dump.dump_dba_snapshot(os.path.join(self.dir, "s.npz"), video, graph, 1)
+        self.assertEqual(os.listdir(self.dir), [])
+
+    def test_wrong_graph_layout_raises(self):
+        video, graph = self.make()
+        graph.weight = FakeTensor(graph.weight._a[0])  # (E,H,W,2): not DROID's layout
+        with self.assertRaisesRegex(ValueError, r"graph.weight has shape .*expected \(1,E,H,W,2\)"):
+            dbacov_dump.dump_dba_snapshot(os.path.join(self.dir, "s.npz"), video, graph, 1)
+
+    def test_inactive_edges_with_droids_selection(self):
+        video, graph = self.make()
+        # Active edges all leave keyframe 4: t0 = min(ii) + 1 = 5, and DROID keeps the inactive
+        # edges whose keyframes are both >= t0 - 3 = 2, inactive ones first.
+        graph.ii._a[:] = [4, 4, 4, 4, 4, 4]
+        graph.jj._a[:] = [0, 1, 2, 3, 0, 1]
+        rng = np.random.default_rng(3)
+        itx, ity, iwx, iwy = pixel_planes(3, self.H, self.W, rng)
+        graph.ii_inac = FakeTensor(np.array([0, 2, 3], np.int64))  # (0, 1) is too old
+        graph.jj_inac = FakeTensor(np.array([1, 3, 2], np.int64))
+        graph.target_inac = FakeTensor(channel_last(itx, ity))
+        graph.weight_inac = FakeTensor(channel_last(iwx, iwy))
+        path = os.path.join(self.dir, "s.npz")
+        dbacov_dump.dump_dba_snapshot(path, video, graph, 1, include_inactive=True)
+        with np.load(path) as z:
+            np.testing.assert_array_equal(z["ii"], [2, 3, 4, 4, 4, 4, 4, 4])
+            np.testing.assert_array_equal(z["jj"], [3, 2, 0, 1, 2, 3, 0, 1])
+            np.testing.assert_array_equal(z["target"][:2, 0], itx[1:])
+            np.testing.assert_array_equal(z["weight"][:2, 1], iwy[1:])
+            np.testing.assert_array_equal(z["target"][2:, 1], self.planes[1])
+        dbacov_dump.dump_dba_snapshot(path, video, graph, 1)  # default: active edges only
+        with np.load(path) as z:
+            self.assertEqual(z["ii"].shape, (6,))
+
+    def test_failed_write_keeps_previous_file_and_leaves_no_temporary(self):
+        video, graph = self.make()
+        path = os.path.join(self.dir, "s.npz")
+        with open(path, "wb") as f:
+            f.write(b"previous")
+        original = np.savez_compressed
+        np.savez_compressed = lambda *a, **k: (_ for _ in ()).throw(OSError(28, "disk full"))
+        try:
+            with self.assertRaises(OSError):
+                dbacov_dump.dump_dba_snapshot(path, video, graph, 1)
+        finally:
+            np.savez_compressed = original
+        with open(path, "rb") as f:
+            self.assertEqual(f.read(), b"previous")
+        self.assertEqual(os.listdir(self.dir), ["s.npz"])
+
+
+# --- converter ------------------------------------------------------------------------------------
+
+def make_dump(rng, n=4, e=5, h=3, w=5, planes="(1,E,H,W,2)", disps="(N,H,W)", poses="(N,7)",
+              intrinsics="(4,)"):
+    """A consistent dump as the paper's code writes it, in the given layouts. Also returns the
+    expected SPEC arrays, built from the (x, y) planes, not from the dump's arrays."""
+    ii = rng.integers(0, n, size=e)
+    jj = (ii + rng.integers(1, n, size=e)) % n
+    tx, ty, wx, wy = pixel_planes(e, h, w, rng)
+    p = rng.normal(size=(n, 7)).astype(np.float32)
+    d = rng.uniform(0.2, 1.5, size=(n, h, w)).astype(np.float32)
+    k = np.array([40.0, 41.0, 2.5, 1.5], np.float32)
+    expected = {"poses": p, "disps": d, "intrinsics": k, "ii": ii, "jj": jj,
+                "target": np.stack([tx, ty], axis=1), "weight": np.stack([wx, wy], axis=1),
+                "tstamp": np.arange(n, dtype=np.float64) * 2, "id": np.int64(17)}
+    layout = {"(E,2,H,W)": lambda a, b: np.stack([a, b], axis=1),
+              "(E,H,W,2)": lambda a, b: np.stack([a, b], axis=-1),
+              "(1,E,H,W,2)": lambda a, b: np.stack([a, b], axis=-1)[None],
+              "(1,E,2,H,W)": lambda a, b: np.stack([a, b], axis=1)[None]}[planes]
+    dump = {"id": 17, "graph_data": {"ii": ii, "jj": jj}, "predicted": layout(tx, ty),
+            "c_map": layout(wx, wy), "tstamp": expected["tstamp"].copy(),
+            "poses": p[None] if poses == "(1,N,7)" else p,
+            "disps": d[None] if disps == "(1,N,H,W)" else d,
+            "intrinsics": {"(4,)": k, "(N,4)": np.tile(k, (n, 1)),
+                           "(1,N,4)": np.tile(k, (1, n, 1))}[intrinsics]}
+    return dump, expected
+
+
+def run_converter(*args):
+    r = subprocess.run([sys.executable, "-B", CONVERTER, *args], capture_output=True, text=True)
+    return r.returncode, r.stdout, r.stderr
+
+
+class ConverterTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.dir = self.tmp.name
+        self.rng = np.random.default_rng(11)
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def save(self, name, obj):
+        path = os.path.join(self.dir, "in", name)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "wb") as f:
+            pickle.dump(obj, f)
+        return path
+
+    def test_every_layout_is_normalized_to_spec(self):
+        combos = [("(E,2,H,W)", "(N,H,W)", "(N,7)", "(4,)"),
+                  ("(E,H,W,2)", "(1,N,H,W)", "(1,N,7)", "(N,4)"),
+                  ("(1,E,H,W,2)", "(N,H,W)", "(N,7)", "(1,N,4)"),
+                  ("(1,E,2,H,W)", "(1,N,H,W)", "(N,7)", "(4,)")]
+        for combo in combos:
+            with self.subTest(combo=combo):
+                names = ("planes", "disps", "poses", "intrinsics")
+                dump, exp = make_dump(self.rng, **dict(zip(names, combo)))
+                got = convert_pickle_dumps.convert_dump(dump)
+                self.assertEqual(sorted(got), sorted(exp))
+                for k, v in exp.items():
+                    self.assertEqual(got[k].dtype, SPEC[k], k)
+                    self.assertEqual(got[k].shape, np.shape(v), k)
+                    np.testing.assert_array_equal(got[k], v, err_msg=k)
+
+    def test_float64_poses_kept_and_square_grid(self):
+        dump, exp = make_dump(self.rng, h=5, w=5, planes="(E,H,W,2)")
+        dump["poses"] = dump["poses"].astype(np.float64)
+        got = convert_pickle_dumps.convert_dump(dump)
+        self.assertEqual(got["poses"].dtype, np.float64)
+        np.testing.assert_array_equal(got["target"], exp["target"])
+
+    def test_shape_errors_name_key_found_and_expected(self):
+        cases = [
+            ("predicted", lambda d: d["predicted"][..., :1], r"key 'predicted' has shape "
+             r"\(1,5,3,5,1\), expected one of \(E,2,H,W\)=\(5,2,3,5\), \(E,H,W,2\)=\(5,3,5,2\), "
+             r"\(1,E,H,W,2\)=\(1,5,3,5,2\), \(1,E,2,H,W\)=\(1,5,2,3,5\)"),
+            ("c_map", lambda d: d["c_map"][:, :, :, :4], r"key 'c_map' has shape \(1,5,3,4,2\)"),
+            ("disps", lambda d: d["disps"][:3], r"key 'disps' has shape \(3,3,5\), expected one "
+             r"of \(N,H,W\)=\(4,3,5\), \(1,N,H,W\)=\(1,4,3,5\)"),
+            ("intrinsics", lambda d: np.zeros(5), r"key 'intrinsics' has shape \(5,\)"),
+            ("tstamp", lambda d: d["tstamp"][None], r"key 'tstamp' has shape \(1,4\), expected "
+             r"one of \(N\)=\(4,\)"),
+            ("poses", lambda d: d["poses"][:, :6], r"key 'poses' has shape \(4,6\)"),
+        ]
+        for key, change, pattern in cases:
+            with self.subTest(key=key):
+                dump, _ = make_dump(self.rng)
+                dump[key] = change(dump)
+                with self.assertRaisesRegex(convert_pickle_dumps.ConversionError, pattern):
+                    convert_pickle_dumps.convert_dump(dump)
+
+    def test_ambiguous_layout_is_refused(self):
+        dump, _ = make_dump(self.rng, h=2, w=2, planes="(E,2,H,W)")
+        with self.assertRaisesRegex(convert_pickle_dumps.ConversionError,
+                                    r"'predicted' has shape \(5,2,2,2\), which is ambiguous: it "
+                                    r"matches \(E,2,H,W\) and \(E,H,W,2\)"):
+            convert_pickle_dumps.convert_dump(dump)
+
+    def test_intrinsics_rows_must_agree(self):
+        dump, _ = make_dump(self.rng, intrinsics="(N,4)")
+        dump["intrinsics"][2, 0] += 1
+        with self.assertRaisesRegex(convert_pickle_dumps.ConversionError,
+                                    "key 'intrinsics': row 2 .* differs from row 0"):
+            convert_pickle_dumps.convert_dump(dump)
+
+    def test_bad_files_reported_one_line_each_good_files_still_written(self):
+        good, exp = make_dump(self.rng)
+        bad = {}
+        d, _ = make_dump(self.rng)
+        del d["c_map"]
+        bad["b_missing_key.pkl"] = (d, "missing key 'c_map'")
+        d, _ = make_dump(self.rng)
+        d["predicted"] = d["predicted"][0].transpose(0, 1, 3, 2)  # (E,H,2,W)
+        bad["c_wrong_layout.pkl"] = (d, r"key 'predicted' has shape \(5,3,2,5\), expected one of")
+        d, _ = make_dump(self.rng)
+        d["graph_data"]["ii"] = d["graph_data"]["ii"].copy()
+        d["graph_data"]["ii"][3] = 4
+        bad["d_out_of_range.pkl"] = (d, r"key 'graph_data.ii': edge 3 names keyframe 4, "
+                                        r"outside \[0, 4\)")
+        d, _ = make_dump(self.rng)
+        d["c_map"][0, 2, 1, 3, 1] = -0.5
+        bad["e_negative_weight.pkl"] = (d, r"key 'c_map' has a negative value at edge 2, "
+                                           r"channel y, pixel \(x=3, y=1\)")
+        d, _ = make_dump(self.rng)
+        d["poses"][1, 4] = np.inf
+        bad["f_nonfinite_pose.pkl"] = (d, r"key 'poses' has a non-finite value at index \(1, 4\)")
+        d, _ = make_dump(self.rng)
+        d["graph_data"]["jj"] = d["graph_data"]["ii"]
+        bad["g_self_edge.pickle"] = (d, r"key 'graph_data.ii' and key 'graph_data.jj': edge 0 "
+                                      r"links keyframe \d+ to itself")
+        bad["h_not_a_dict.pkl"] = ([1, 2], "the pickle holds a list, expected a dict")
+        self.save("a_good.pkl", good)
+        for name, (obj, _) in bad.items():
+            self.save(name, obj)
+        self.save("z_good.pickle", good)
+        with open(os.path.join(self.dir, "in", "notes.txt"), "w") as f:
+            f.write("not a pickle, ignored in a directory")
+        with open(os.path.join(self.dir, "in", "i_truncated.pkl"), "wb") as f:
+            f.write(pickle.dumps(good)[:100])
+        bad["i_truncated.pkl"] = (None, "cannot unpickle: ")
+
+        out = os.path.join(self.dir, "out")
+        code, stdout, stderr = run_converter(os.path.join(self.dir, "in"), "-o", out)
+        self.assertEqual(code, 1, stderr)
+        lines = stderr.splitlines()
+        self.assertEqual(len(lines), len(bad), stderr)
+        for line, (name, (_, pattern)) in zip(lines, sorted(bad.items())):
+            self.assertRegex(line, f"^convert_pickle_dumps.py: error: .*/in/{name}: {pattern}")
+        self.assertEqual(sorted(os.listdir(out)), ["a_good.npz", "z_good.npz"])
+        self.assertIn("2 of 10 files converted, 8 failed", stdout)
+        self.assertLess(stdout.index("a_good.pkl"), stdout.index("z_good.pickle"))  # name order
+        for name in ("a_good.npz", "z_good.npz"):
+            with np.load(os.path.join(out, name)) as z:
+                self.assertEqual(sorted(z.files), sorted(exp))
+                for k, v in exp.items():
+                    self.assertEqual(z[k].dtype, SPEC[k], k)
+                    np.testing.assert_array_equal(z[k], v, err_msg=k)
+
+    def test_torch_pickle_without_torch_says_so(self):
+        fake = types.ModuleType("torch")
+
+        class Tensor:  # pickled by reference as torch.Tensor
+            pass
+
+        Tensor.__module__, Tensor.__qualname__ = "torch", "Tensor"
+        fake.Tensor = Tensor
+        sys.modules["torch"] = fake
+        try:
+            path = self.save("t.pkl", {"poses": Tensor()})
+        finally:
+            del sys.modules["torch"]
+        code, _, stderr = run_converter(path, "-o", os.path.join(self.dir, "out"))
+        self.assertEqual(code, 1)
+        self.assertRegex(stderr, r"t\.pkl: the pickle holds torch tensors and PyTorch is not "
+                                 r"installed: install torch")
+
+    def test_usage_and_inputs(self):
+        code, out, _ = run_converter("--help")
+        self.assertEqual(code, 0)
+        self.assertIn("INPUT", out)
+        self.assertIn("-o OUT_DIR", out)
+        self.assertIn("SECURITY: unpickling runs code", out)
+        self.assertIn("Only convert pickles you trust", out)
+        for args in ([], ["x.pkl"], ["-o", self.dir], ["x.pkl", "-o", self.dir, "--bogus"]):
+            code, _, err = run_converter(*args)
+            self.assertEqual(code, 2, args)
+            self.assertIn("usage:", err)
+        good, _ = make_dump(self.rng)
+        a = self.save("a.pkl", good)
+        os.makedirs(os.path.join(self.dir, "empty"))
+        out = os.path.join(self.dir, "new", "out")  # created on demand
+        code, _, err = run_converter(a, os.path.join(self.dir, "missing.pkl"),
+                                     os.path.join(self.dir, "empty"), a, "-o", out, "-q")
+        self.assertEqual(code, 1)
+        lines = err.splitlines()
+        self.assertEqual(len(lines), 3, err)
+        self.assertRegex(lines[0], r"missing\.pkl: no such file or directory$")
+        self.assertRegex(lines[1], r"empty: directory holds no \.pkl/\.pickle file$")
+        self.assertRegex(lines[2], r"a\.pkl: output .*a\.npz is already written from .*a\.pkl$")
+        self.assertEqual(os.listdir(out), ["a.npz"])
+
+
+if __name__ == "__main__":
+    unittest.main()
