@@ -36,6 +36,12 @@ Conventions (README.md has the details):
   converted exactly (to first order) from the tangent one; timestamp = the keyframe's time
   ('timestamps_s', or tstamp / --fps). --emit final identifies keyframes by their tstamp and
   writes them in time order. Inputs may be rawlogs of DBA snapshots (droid2rawlog).
+  --graph: one node per keyframe (id = keyframe index, its latest T_wc), one edge per co-visible
+  or consecutive pair (lower -> higher index) with the relative pose and the information (inverse
+  relative covariance, tangent [rho; phi]) from the last snapshot containing both whose gauge does
+  not fix their relative pose. .graphbin keeps everything; .graph is laid out for MRPT 2.5.8's
+  text loader (which drops rotation-rotation off-diagonal information); .g2o uses g2o's order
+  and its quaternion-vector error (rotation information x4). dba-posegraph optimizes it.
   All outputs are written atomically (temporary file, then rename).
 Exit status: 0 success, 1 when any snapshot or output failed (the others are still written),
 2 on bad usage.)";
@@ -99,6 +105,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   cli.add_option("--label", opt.label, "sensorLabel of the rawlog observations");
   cli.add_option("--fps", opt.fps, "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
       ->check(CLI::PositiveNumber);
+  cli.add_option("--graph", opt.graph_prefix, "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
   cli.add_option("--relative-csv", opt.relative_csv_path, "Write one row per (snapshot, keyframe pair): relative pose and covariance");
   cli.add_option("--depth-sigma", opt.depth_sigma_dir, "Write per-pixel inverse-depth sigma maps (.npy) into this directory");
   cli.add_option("--solver", opt.solver, "sparse (CHOLMOD, default) or dense (reference, small graphs)")
@@ -131,8 +138,9 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   try {
     engine = opt.engineOptions();
     if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
-        opt.rawlog_path.empty())
-      throw std::invalid_argument("no output requested: give -o, --csv, --relative-csv or --depth-sigma");
+        opt.rawlog_path.empty() && opt.graph_prefix.empty())
+      throw std::invalid_argument(
+          "no output requested: give -o, --csv, --relative-csv, --depth-sigma or --graph");
   } catch (const std::invalid_argument& e) {
     err << "dba-covariance: " << e.what() << "\nRun with --help for usage.\n";
     return 2;
@@ -147,6 +155,12 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       sinks.push_back(std::make_unique<RelativeCsvSink>(opt.relative_csv_path));
     if (!opt.depth_sigma_dir.empty())
       sinks.push_back(std::make_unique<DepthSigmaSink>(opt.depth_sigma_dir));
+    GraphSink* graph = nullptr;
+    if (!opt.graph_prefix.empty()) {
+      auto g = std::make_unique<GraphSink>(opt.graph_prefix);
+      graph = g.get();
+      sinks.push_back(std::move(g));
+    }
     if (!opt.rawlog_path.empty())
       sinks.push_back(std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.label, parseEmitMode(opt.emit)));
     SolverOptions solver = opt.solverOptions();
@@ -178,6 +192,9 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
         });
     progress.clear();
     for (const auto& sink : sinks) sink->commit();
+    if (graph && graph->uninformativePairs() && !opt.quiet)
+      err << "dba-covariance: note: " << graph->uninformativePairs()
+          << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative pose\n";
   } catch (const std::exception& e) {
     err << "dba-covariance: error: " << e.what() << '\n';
     return 1;

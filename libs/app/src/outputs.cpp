@@ -6,6 +6,7 @@
 #include "dbacov/core/criteria.h"
 #include "dbacov/io/npy.h"
 #include "dbacov/mrpt/pose_conversion.h"
+#include "dbacov/mrpt/pose_graph_io.h"
 #include "dbacov/mrpt/rawlog_io.h"
 
 #include <mrpt/obs/CObservationRobotPose.h>
@@ -123,6 +124,27 @@ void PoseRawlogSink::commit() {
     for (const Record* r : ordered) write(*r);
   }
   writer_->commit();
+}
+
+GraphSink::GraphSink(std::string prefix) : prefix_(std::move(prefix)) {
+  io::AtomicOutputFile probe(prefix_ + ".graphbin");  // discarded: only checks the directory
+}
+
+void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) { builder_.add(s, cov); }
+
+void GraphSink::commit() {
+  const PoseGraph g = builder_.graph();
+  mrpt_bridge::writeGraphBinary(prefix_ + ".graphbin", g);
+  mrpt_bridge::writeGraphText(prefix_ + ".graph", g, mrpt_bridge::GraphTextLayout::Mrpt258);
+  mrpt_bridge::writeGraphText(prefix_ + ".g2o", g, mrpt_bridge::GraphTextLayout::G2o);
+  io::writeFileAtomically(prefix_ + ".nodes.csv", [&](std::ostream& os) {
+    os << "node,tstamp,time_s\n";
+    for (const auto& [id, T] : g.nodes) {
+      os << id << ',' << formatDouble(g.node_tstamp.at(id)) << ',';
+      if (const auto t = g.node_time.find(id); t != g.node_time.end()) os << formatDouble(t->second);
+      os << '\n';
+    }
+  });
 }
 
 }  // namespace dbacov::app

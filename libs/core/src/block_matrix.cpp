@@ -37,4 +37,17 @@ Eigen::MatrixXd BlockSymmetricMatrix::toDense() const {
   return D;
 }
 
+Eigen::SparseMatrix<double> BlockSymmetricMatrix::toSparseUpper() const {
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(numBlocks() * 36);
+  for (int a = 0; a < numSlots(); ++a)
+    for (const auto& [b, M] : rows_[a])
+      for (int c = 0; c < 6; ++c)
+        for (int r = 0; r < 6; ++r)
+          if (a != b || r <= c) trip.emplace_back(6 * a + r, 6 * b + c, M(r, c));
+  Eigen::SparseMatrix<double> S(6 * numSlots(), 6 * numSlots());
+  S.setFromTriplets(trip.begin(), trip.end());
+  return S;
+}
+
 }  // namespace dbacov

@@ -86,6 +86,27 @@ Matrix6d adjoint(const Eigen::Isometry3d& T) {
   return Ad;
 }
 
+Matrix6d adSE3(const Vector6d& xi) {
+  Matrix6d ad = Matrix6d::Zero();
+  ad.topLeftCorner<3, 3>() = hat(xi.tail<3>());
+  ad.topRightCorner<3, 3>() = hat(xi.head<3>());
+  ad.bottomRightCorner<3, 3>() = hat(xi.tail<3>());
+  return ad;
+}
+
+Matrix6d rightJacobianSE3(const Vector6d& xi) {
+  // The series converges for every ξ; terms shrink like |ξ|^k/(k+1)!, so stop once they are below
+  // round-off (for |ξ| <= π this takes ~25 terms).
+  const Matrix6d A = -adSE3(xi);
+  Matrix6d J = Matrix6d::Identity(), term = Matrix6d::Identity();
+  for (int k = 1; k < 60; ++k) {
+    term = term * A / static_cast<double>(k + 1);
+    J += term;
+    if (term.cwiseAbs().maxCoeff() < 1e-17) break;
+  }
+  return J;
+}
+
 Eigen::Isometry3d poseFromTQ(const double* v) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);  // Eigen's constructor order is (w, x, y, z)

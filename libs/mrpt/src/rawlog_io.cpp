@@ -5,31 +5,11 @@
 #include <mrpt/obs/CSensoryFrame.h>
 #include <mrpt/serialization/CArchive.h>
 
-#include <sstream>
-
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
+#include "mrpt_errors.h"
 
 namespace dbacov::mrpt_bridge {
-namespace {
-
-/// MRPT exceptions carry a banner, the location and a stack trace; keep the messages only.
-std::string conciseMrptMessage(const std::string& what) {
-  std::istringstream in(what);
-  std::string out;
-  for (std::string line; std::getline(in, line);) {
-    if (line.rfind("Location:", 0) == 0 || line.rfind("Call stack", 0) == 0) break;
-    if (line.empty() || line.rfind("====", 0) == 0 || line == "Original exception:") continue;
-    if (line.rfind("Message:", 0) == 0) line = line.substr(8);
-    const auto first = line.find_first_not_of(' ');
-    if (first == std::string::npos) continue;
-    if (!out.empty()) out += ": ";
-    out += line.substr(first);
-  }
-  return out.empty() ? what : out;
-}
-
-}  // namespace
 
 RawlogWriter::RawlogWriter(const std::string& path)
     : path_(path), file_(std::make_unique<io::AtomicOutputFile>(path)) {

@@ -13,7 +13,7 @@ namespace dbacov::app {
 
 struct CovarianceAppOptions {
   std::vector<std::string> inputs;
-  std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path;
+  std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path, graph_prefix;
   std::string emit = "latest", label = "DBA_COVARIANCE";
   std::optional<double> fps;
   std::string solver = "sparse", ordering = "auto";

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/pose_graph.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/io/atomic_file.h"
 
@@ -105,6 +106,24 @@ class PoseRawlogSink final : public OutputSink {
   std::string label_;
   EmitMode mode_;
   std::map<double, Record> final_;  ///< Final mode: tstamp → newest record
+};
+
+/// `--graph PREFIX`: the pose graph of the whole processed sequence (PoseGraphBuilder):
+/// PREFIX.graphbin (MRPT binary CNetworkOfPoses3DInf, every entry kept), PREFIX.graph (text laid
+/// out for MRPT 2.5.8's loader), PREFIX.g2o (g2o's convention) and PREFIX.nodes.csv
+/// (node,tstamp,time_s: the keyframe times that the graph formats cannot hold).
+class GraphSink final : public OutputSink {
+ public:
+  /// Fails early (InputError) when PREFIX's directory is not writable.
+  explicit GraphSink(std::string prefix);
+  void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
+  void commit() override;
+  /// Pairs that every snapshot's gauge fixed (no information, no edge).
+  std::size_t uninformativePairs() const { return builder_.numUninformativePairs(); }
+
+ private:
+  std::string prefix_;
+  PoseGraphBuilder builder_;
 };
 
 /// snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 
 #include "dbacov/core/se3.h"
 
@@ -32,6 +33,8 @@ class BlockSymmetricMatrix {
 
   /// The full symmetric 6n×6n matrix (tests and dense references).
   Eigen::MatrixXd toDense() const;
+  /// The upper triangle as a column-major sparse 6n×6n matrix (the solvers' input).
+  Eigen::SparseMatrix<double> toSparseUpper() const;
 
  private:
   std::vector<Row> rows_;

@@ -48,6 +48,12 @@ Eigen::Isometry3d poseFromTQ(const double* v);
 /// [tx ty tz qx qy qz qw] of T, with qw >= 0.
 Eigen::Matrix<double, 7, 1> poseToTQ(const Eigen::Isometry3d& T);
 
+/// ad(ξ) = [hat(φ), hat(ρ); 0, hat(φ)]: the adjoint of the Lie algebra in the [ρ; φ] layout.
+Matrix6d adSE3(const Vector6d& xi);
+/// Right Jacobian of SE(3): Exp(ξ + δ) ≈ Exp(ξ) Exp(Jr(ξ) δ); Jr(ξ) = Σ_k (−ad ξ)^k / (k+1)!
+/// (series to machine precision). Its inverse gives Log(Exp(ξ) Exp(δ)) ≈ ξ + Jr(ξ)⁻¹ δ.
+Matrix6d rightJacobianSE3(const Vector6d& xi);
+
 /// Relative pose Z = T_a^-1 T_b and the covariance of its tangent (SPEC §5):
 /// δz ≈ δb − Ad(Z^-1) δa, so Σ_z = [−Ad(Z^-1)  I] Σ_ab [−Ad(Z^-1)  I]^T, with Σ_ab the 12×12 joint
 /// covariance of (ξ_a, ξ_b) (a first).

@@ -1,0 +1,216 @@
+#include "dbacov/app/posegraph_app.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <mrpt/graphslam/levmarq.h>
+#include <mrpt/obs/CObservationRobotPose.h>
+
+#include "dbacov/app/csv_format.h"
+#include "dbacov/app/extra_constraints.h"
+#include "dbacov/io/atomic_file.h"
+#include "dbacov/mrpt/pose_conversion.h"
+#include "dbacov/mrpt/pose_graph_io.h"
+#include "dbacov/mrpt/rawlog_io.h"
+
+namespace dbacov::app {
+namespace {
+namespace fs = std::filesystem;
+
+/// Loads the graph and checks that every edge's information is symmetric positive definite.
+PoseGraph loadGraph(const std::string& path) {
+  const std::string ext = fs::path(path).extension().string();
+  PoseGraph g;
+  if (ext == ".graphbin")
+    g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(path));
+  else if (ext == ".graph")
+    g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(path));
+  else
+    throw std::invalid_argument(path + ": expected a .graphbin (exact) or .graph (MRPT text) file; "
+                                "MRPT's loader would misread the rotation information of a .g2o");
+  for (const PoseGraphEdge& e : g.edges) {
+    Matrix6d unused;
+    const Matrix6d I = e.information;
+    if (!I.allFinite() || !informationOf(0.5 * (I + I.transpose()), &unused))
+      throw InputError(path + ": edge " + std::to_string(e.from) + " -> " + std::to_string(e.to) +
+                       " has an information matrix that is not positive definite" +
+                       (ext == ".graph" ? " (MRPT's text loader drops its rotation-rotation "
+                                          "off-diagonal entries; load the .graphbin instead)"
+                                        : ""));
+  }
+  return g;
+}
+
+/// node,tstamp,time_s rows of PREFIX.nodes.csv into graph.node_time / node_tstamp.
+void loadNodeTimes(const std::string& path, PoseGraph& g) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open the node times file");
+  std::string line;
+  if (!std::getline(in, line) || line != "node,tstamp,time_s")
+    throw InputError(path + ":1: expected the header 'node,tstamp,time_s'");
+  for (int n = 2; std::getline(in, line); ++n) {
+    std::istringstream ls(line);
+    std::string id, tstamp, time;
+    std::getline(ls, id, ',');
+    std::getline(ls, tstamp, ',');
+    std::getline(ls, time, ',');
+    try {
+      const int node = std::stoi(id);
+      g.node_tstamp[node] = std::stod(tstamp);
+      if (!time.empty()) g.node_time[node] = std::stod(time);
+    } catch (const std::exception&) {
+      throw InputError(path + ":" + std::to_string(n) + ": expected 'node,tstamp,time_s', found '" + line + "'");
+    }
+  }
+}
+
+double nodeTime(const PoseGraph& g, int id, const std::string& nodes_path) {
+  const auto t = g.node_time.find(id);
+  if (t == g.node_time.end())
+    throw InputError("node " + std::to_string(id) + " has no time in " +
+                     (nodes_path.empty() ? std::string("(no node times file)") : nodes_path) +
+                     ": rawlog and TUM outputs need keyframe times");
+  return t->second;
+}
+
+}  // namespace
+
+int runPoseGraphApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+  std::string graph_path, nodes_path, extra_path, rawlog_path, tum_path, label = "DBA_POSEGRAPH";
+  std::size_t max_iterations = 100;
+  bool identity = false, quiet = false, no_refine = false;
+  CLI::App cli{"dba-posegraph: optimize a DROID-SLAM pose graph with MRPT and recover covariances", "dba-posegraph"};
+  cli.footer(R"(
+Loads GRAPH (.graphbin: MRPT binary CNetworkOfPoses3DInf, exact; .graph: MRPT text, whose 2.5.8
+loader drops rotation-rotation off-diagonal information), adds the constraints of --extra, runs
+mrpt::graphslam::optimize_graph_spa_levmarq, and writes the optimized poses: a rawlog of
+CObservationRobotPose (CPose3DPDFGaussian: mean from the optimizer, covariance = marginal of the
+graph's information at the solution, from dbacov's sparse solver, converted to MRPT's
+[x y z yaw pitch roll]) and/or a TUM file (t tx ty tz qx qy qz qw, camera-to-world).
+Without absolute priors the lowest node is held fixed (zero covariance); with them every node is
+free and the priors anchor the graph. Edges joining the same two nodes (e.g. a loop closure beside
+a DBA edge) are merged into one equivalent edge first: MRPT's optimizer mishandles parallel edges.
+MRPT 2.5.8's levmarq accepts a step only when the *unweighted* squared error decreases and cannot
+recover from a rejected step, so with real information matrices it often stops early; dbacov then
+continues with its own Levenberg-Marquardt on the same weighted cost and residual convention until
+the gradient vanishes (--no-refine keeps MRPT's result). The summary reports both stages.
+Extra constraints (one per line, '#' comments; covariances over the tangent [rho; phi]):
+  relative FROM TO tx ty tz qx qy qz qw  sigma_t sigma_r | 21 upper-triangular entries
+  absolute ID      tx ty tz qx qy qz qw  sigma_t sigma_r | 21 upper-triangular entries
+Node times come from PREFIX.nodes.csv beside the graph (written by dba-covariance --graph).
+Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
+  cli.add_option("-g,--graph", graph_path, "Pose graph (.graphbin or .graph)")->required();
+  cli.add_option("--nodes", nodes_path, "Node times CSV (default: GRAPH with extension .nodes.csv, if present)");
+  cli.add_option("--extra", extra_path, "Extra constraints file (loop closures, absolute priors)");
+  cli.add_option("-o,--output", rawlog_path, "Write the optimized poses as a rawlog of CObservationRobotPose");
+  cli.add_option("--tum", tum_path, "Write the optimized trajectory as a TUM file");
+  cli.add_option("--label", label, "sensorLabel of the rawlog observations");
+  cli.add_option("--max-iterations", max_iterations, "Levenberg-Marquardt iterations")->check(CLI::Range(1, 100000));
+  cli.add_flag("--identity-information", identity,
+               "Replace every information matrix by the identity (what MRPT's graph-slam app does in 3D), for comparison");
+  cli.add_flag("--no-refine", no_refine,
+               "Keep MRPT's result as it is (no dbacov Levenberg-Marquardt refinement afterwards)");
+  cli.add_flag("-q,--quiet", quiet, "No summary line");
+  try {
+    cli.parse(argc, argv);
+    if (rawlog_path.empty() && tum_path.empty())
+      throw CLI::ValidationError("no output requested: give -o OUT.rawlog and/or --tum OUT.tum");
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      out << cli.help();
+      return 0;
+    }
+    err << "dba-posegraph: " << e.what() << "\nRun with --help for usage.\n";
+    return 2;
+  }
+
+  try {
+    PoseGraph g;
+    try {
+      g = loadGraph(graph_path);
+    } catch (const std::invalid_argument& e) {
+      err << "dba-posegraph: " << e.what() << "\nRun with --help for usage.\n";
+      return 2;
+    }
+    if (g.nodes.empty()) throw InputError(graph_path + ": the graph has no nodes");
+    if (nodes_path.empty()) {
+      const std::string guess = fs::path(graph_path).replace_extension(".nodes.csv").string();
+      if (fs::exists(guess)) nodes_path = guess;
+    }
+    if (!nodes_path.empty()) loadNodeTimes(nodes_path, g);
+    ExtraConstraints extra;
+    if (!extra_path.empty()) extra = readExtraConstraints(extra_path, g.nodes);
+    g.edges.insert(g.edges.end(), extra.relative.begin(), extra.relative.end());
+
+    // Absolute priors become edges from a fixed anchor node at the world origin.
+    const int anchor = g.nodes.rbegin()->first + 1;
+    std::set<int> fixed{g.nodes.begin()->first};
+    if (!extra.absolute.empty()) {
+      g.nodes[anchor] = Eigen::Isometry3d::Identity();
+      for (const AbsolutePrior& a : extra.absolute) g.edges.push_back({anchor, a.node, a.T_wc, a.information});
+      fixed = {anchor};
+    }
+    if (identity)
+      for (PoseGraphEdge& e : g.edges) e.information.setIdentity();
+    const std::size_t fused = fuseParallelEdges(g);
+
+    mrpt::graphs::CNetworkOfPoses3DInf net = mrpt_bridge::toNetwork(g);
+    net.root = *fixed.begin();
+    mrpt::graphslam::TResultInfoSpaLevMarq info;
+    mrpt::containers::yaml params;
+    params["max_iterations"] = max_iterations;
+    const double initial_cost = poseGraphCostAndGradient(g, fixed).first;
+    mrpt::graphslam::optimize_graph_spa_levmarq(net, info, nullptr, params);
+    for (auto& [id, T] : g.nodes) T = mrpt_bridge::fromCPose3D(net.nodes.at(id));
+    const auto [mrpt_cost, mrpt_gradient] = poseGraphCostAndGradient(g, fixed);
+    PoseGraphOptimizerSummary refine;
+    if (!no_refine) {
+      PoseGraphOptimizerOptions ro;
+      ro.max_iterations = static_cast<int>(max_iterations);
+      refine = optimizePoseGraph(g, fixed, ro);
+    }
+
+    const std::map<int, Matrix6d> cov = poseGraphCovariances(g, fixed);
+    if (!extra.absolute.empty()) g.nodes.erase(anchor);
+
+    if (!rawlog_path.empty()) {
+      mrpt_bridge::RawlogWriter w(rawlog_path);
+      for (const auto& [id, T] : g.nodes) {
+        mrpt::obs::CObservationRobotPose obs;
+        obs.pose = mrpt_bridge::toPoseGaussian(T, cov.at(id));
+        obs.timestamp = mrpt::Clock::fromDouble(nodeTime(g, id, nodes_path));
+        obs.sensorLabel = label;
+        w.write(obs);
+      }
+      w.commit();
+    }
+    if (!tum_path.empty()) {
+      io::writeFileAtomically(tum_path, [&](std::ostream& os) {
+        for (const auto& [id, T] : g.nodes) {
+          os << formatDouble(nodeTime(g, id, nodes_path));
+          const Eigen::Matrix<double, 7, 1> tq = poseToTQ(T);
+          for (int i = 0; i < 7; ++i) os << ' ' << formatDouble(tq[i]);
+          os << '\n';
+        }
+      });
+    }
+    if (!quiet)
+      err << "dba-posegraph: " << g.nodes.size() << " nodes, " << g.edges.size() << " edges ("
+          << extra.relative.size() << " extra, " << extra.absolute.size() << " absolute priors, "
+          << fused << " merged into parallel edges); weighted cost " << initial_cost
+          << " -> MRPT levmarq (" << info.num_iters << " iterations) " << mrpt_cost
+          << ", max gradient " << mrpt_gradient;
+    if (!no_refine)
+      err << " -> dbacov refinement (" << refine.iterations << " iterations) " << refine.final_cost
+          << ", max gradient " << refine.final_gradient;
+    err << '\n';
+  } catch (const std::exception& e) {
+    err << "dba-posegraph: error: " << e.what() << '\n';
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace dbacov::app
