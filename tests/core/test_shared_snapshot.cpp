@@ -62,9 +62,11 @@ TEST_F(SharedSnapshot, PaperPresetGaugeCovarianceNeverExceedsItsPrior) {
     const Matrix6d S = cov.marginal(k);
     expectSpd(S, "keyframe " + std::to_string(k));
     if (k > 2) continue;
-    // Loewner order: prior − Σ is positive semi-definite.
+    // Loewner order: prior − Σ is positive semi-definite (to round-off: the data add little to
+    // the gauge keyframes, so Σ is within ~1e-10 of the prior in some directions).
     const Matrix6d gap = Matrix6d(prior_var.asDiagonal()) - S;
-    EXPECT_GE(Eigen::SelfAdjointEigenSolver<Matrix6d>(gap).eigenvalues().minCoeff(), -1e-15)
+    EXPECT_GE(Eigen::SelfAdjointEigenSolver<Matrix6d>(gap).eigenvalues().minCoeff(),
+              -1e-9 * prior_var.maxCoeff())
         << "gauge keyframe " << k;
   }
 }

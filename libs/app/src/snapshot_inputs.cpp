@@ -37,38 +37,54 @@ std::size_t SnapshotInputs::knownCount() const {
 
 void SnapshotInputs::forEach(const std::function<void(Snapshot&)>& process,
                              const std::function<void(const std::string&)>& on_error) const {
-  std::int64_t index = 0;
-  for (const std::string& file : files_) {
-    if (isRawlogPath(file)) {
-      // Indices continue after the last snapshot seen, even when a bad entry ends the file.
-      const std::int64_t first = index;
-      std::size_t seen = 0;
-      try {
-        mrpt_bridge::forEachRawlogSnapshot(
-            file, first,
-            [&](Snapshot& s) {
-              ++seen;
-              process(s);
-            },
-            [&](const InputError& e) {
-              ++seen;
-              on_error(e.what());
-            });
-      } catch (const InputError& e) {
-        on_error(e.what());
-      }
-      index = first + static_cast<std::int64_t>(seen);
-      continue;
-    }
-    Snapshot s;
-    try {
-      s = io::loadSnapshotNpz(file, index++);
-    } catch (const std::exception& e) {
-      on_error(e.what());
-      continue;
-    }
-    process(s);
+  SnapshotStream stream(*this);
+  SnapshotItem item;
+  while (stream.next(&item)) {
+    if (item.ok())
+      process(item.snapshot);
+    else
+      on_error(item.error);
   }
+}
+
+SnapshotStream::SnapshotStream(const SnapshotInputs& inputs) : inputs_(inputs) {}
+
+SnapshotStream::~SnapshotStream() = default;
+
+bool SnapshotStream::next(SnapshotItem* item) {
+  item->error.clear();
+  while (file_ < inputs_.files().size()) {
+    const std::string& file = inputs_.files()[file_];
+    if (!isRawlogPath(file)) {
+      ++file_;
+      try {
+        item->snapshot = io::loadSnapshotNpz(file, index_++);
+      } catch (const std::exception& e) {
+        item->error = e.what();
+      }
+      return true;
+    }
+    try {
+      if (!rawlog_) rawlog_ = std::make_unique<mrpt_bridge::RawlogSnapshotReader>(file, index_);
+      if (rawlog_->next(&item->snapshot)) {
+        index_ = item->snapshot.index + 1;
+        try {
+          item->snapshot.validate();
+        } catch (const InputError& e) {
+          item->error = e.what();
+        }
+        return true;
+      }
+    } catch (const InputError& e) {
+      item->error = e.what();  // unreadable file or entry: report it and go on with the next input
+      rawlog_.reset();
+      ++file_;
+      return true;
+    }
+    rawlog_.reset();
+    ++file_;
+  }
+  return false;
 }
 
 }  // namespace dbacov::app

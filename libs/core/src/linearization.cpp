@@ -3,16 +3,103 @@
 #include <algorithm>
 
 #include "dbacov/core/dba_factor.h"
+#include "dbacov/core/parallel.h"
+#include "dba_kernel.h"
 
 namespace dbacov {
 namespace {
 
+/// One edge leaving the current source keyframe.
 struct EdgeRef {
   int edge;    ///< index into ii/jj
   int target;  ///< position of the target slot in the source's touched list (>= 1)
   Eigen::Matrix3d R_ji;
   Eigen::Vector3d t_ji;
 };
+
+/// The linearization of one source keyframe's pixels: a dense local system over the slots it
+/// touches (itself and its edge targets), merged into the block matrices afterwards.
+struct SourceResult {
+  int source_slot = -1;
+  std::vector<int> touched;
+  Eigen::MatrixXd Hloc, Sloc;  ///< 6T×6T, symmetric
+  Eigen::VectorXd g_loc, gS_loc;
+  LinearizationStats stats;
+  DepthTerms depth;  ///< filled only with keep_depth_terms
+};
+
+SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const PinholeIntrinsics& K,
+                             const std::vector<double>& xn, const std::vector<double>& yn,
+                             int src_slot, int src, std::vector<int> touched,
+                             const std::vector<EdgeRef>& edges, bool keep_depth_terms) {
+  SourceResult res;
+  res.source_slot = src_slot;
+  const int T = static_cast<int>(touched.size()), E = static_cast<int>(edges.size());
+  const int HW = static_cast<int>(s.pixelsPerFrame());
+
+  // The pixel kernel (dba_kernel.h) accumulates, chunk by chunk, the per-edge normal equations
+  // and the Schur terms; nothing per pixel is stored unless the depth terms are requested.
+  const kernel::Camera cam{K.fx, K.fy, K.cx, K.cy};
+  const kernel::Filter flt{o.weight_scale, o.min_depth_ratio.value_or(0.0), o.near.value_or(0.0),
+                           o.far.value_or(0.0), o.depth_info_eps};
+  std::vector<kernel::Edge> kedges(E);
+  for (int q = 0; q < E; ++q) {
+    kernel::Edge& k = kedges[q];
+    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(k.R) = edges[q].R_ji;
+    Eigen::Map<Eigen::Vector3d>(k.t) = edges[q].t_ji;
+    k.target = edges[q].target;
+    k.wx = s.weightPlane(edges[q].edge, 0);
+    k.wy = s.weightPlane(edges[q].edge, 1);
+    k.tx = s.targetPlane(edges[q].edge, 0);
+    k.ty = s.targetPlane(edges[q].edge, 1);
+  }
+  thread_local kernel::Accumulator acc;  // reused: no allocation per snapshot in steady state
+  acc.reset(T, E, keep_depth_terms);
+  double d[kernel::kChunk];
+  const float* disps = &s.disps[static_cast<std::size_t>(src) * HW];
+  for (int p0 = 0; p0 < HW; p0 += kernel::kChunk) {
+    const int n = std::min(kernel::kChunk, HW - p0);
+    for (int p = 0; p < n; ++p) d[p] = disps[p0 + p];
+    kernel::processChunk(cam, flt, p0, n, &xn[p0], &yn[p0], d, kedges.data(), acc);
+  }
+  res.stats.factors_used = acc.factors_used;
+  res.stats.factors_filtered = acc.factors_filtered;
+  res.stats.depths_used = acc.depths_used;
+  res.stats.depths_unobservable = acc.depths_unobservable;
+
+  // Local system of the touched slots from the per-edge blocks (upper triangles of aug).
+  res.Hloc = Eigen::MatrixXd::Zero(6 * T, 6 * T);
+  res.g_loc = Eigen::VectorXd::Zero(6 * T);
+  for (int q = 0; q < E; ++q) {
+    const int t = edges[q].target;
+    Eigen::Matrix<double, 13, 13> A =
+        Eigen::Map<const Eigen::Matrix<double, 13, 13, Eigen::RowMajor>>(&acc.aug[169 * q]);
+    A.triangularView<Eigen::StrictlyLower>() = A.transpose();
+    res.Hloc.block<6, 6>(0, 0) += A.block<6, 6>(0, 0);
+    res.Hloc.block<6, 6>(6 * t, 6 * t) += A.block<6, 6>(6, 6);
+    res.Hloc.block<6, 6>(0, 6 * t) += A.block<6, 6>(0, 6);
+    res.Hloc.block<6, 6>(6 * t, 0) += A.block<6, 6>(6, 0);
+    res.g_loc.segment<6>(0) += A.block<6, 1>(0, 12);
+    res.g_loc.segment<6>(6 * t) += A.block<6, 1>(6, 12);
+    res.stats.chi2 += A(12, 12);
+  }
+  // S = H − Σ b b ᵀ/h and g_S = g − Σ b g/h over the eliminated depths.
+  Eigen::MatrixXd W = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
+                                                      Eigen::RowMajor>>(acc.W.data(), 6 * T, 6 * T);
+  W.triangularView<Eigen::StrictlyUpper>() = W.transpose();
+  res.Sloc = res.Hloc - W;
+  res.gS_loc = res.g_loc - Eigen::Map<const Eigen::VectorXd>(acc.gS.data(), 6 * T);
+  if (keep_depth_terms) {
+    res.depth.source_slot = src_slot;
+    res.depth.touched = touched;
+    res.depth.pixel = acc.pixel;
+    res.depth.h = acc.h;
+    res.depth.g = acc.g;
+    res.depth.B = Eigen::Map<const Eigen::MatrixXd>(acc.B.data(), 6 * T, acc.pixel.size());
+  }
+  res.touched = std::move(touched);
+  return res;
+}
 
 }  // namespace
 
@@ -43,127 +130,59 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
   }
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
   const int HW = static_cast<int>(s.pixelsPerFrame());
+  std::vector<double> xn(HW), yn(HW);  // normalized image coordinates, shared by every keyframe
+  for (int p = 0; p < HW; ++p) {
+    xn[p] = (p % s.W - K.cx) / K.fx;
+    yn[p] = (p / s.W - K.cy) / K.fy;
+  }
 
+  // The sources and their edges; the work per source is independent.
+  struct Task {
+    int slot;
+    std::vector<int> touched;
+    std::vector<EdgeRef> edges;
+  };
+  std::vector<Task> tasks;
   for (int src_slot = 0; src_slot < n; ++src_slot) {
     const int src = ne.keyframes[src_slot];
-    // Edges leaving this keyframe and the slots they touch.
-    std::vector<int> touched{src_slot};
-    std::vector<EdgeRef> edges;
+    Task t{src_slot, {src_slot}, {}};
     for (int e = 0; e < s.numEdges(); ++e) {
       if (s.ii[e] != src) continue;
       const int tgt_slot = ne.slot_of[s.jj[e]];
-      auto it = std::find(touched.begin(), touched.end(), tgt_slot);
-      const int t = static_cast<int>(it - touched.begin());
-      if (it == touched.end()) touched.push_back(tgt_slot);
+      auto it = std::find(t.touched.begin(), t.touched.end(), tgt_slot);
+      const int pos = static_cast<int>(it - t.touched.begin());
+      if (it == t.touched.end()) t.touched.push_back(tgt_slot);
       const Eigen::Isometry3d T_ji = T_cw[s.jj[e]] * T_wc[src];
-      edges.push_back({e, t, T_ji.linear(), T_ji.translation()});
+      t.edges.push_back({e, pos, T_ji.linear(), T_ji.translation()});
     }
-    if (edges.empty()) continue;
-    const int T = static_cast<int>(touched.size());
+    if (!t.edges.empty()) tasks.push_back(std::move(t));
+  }
+  std::vector<SourceResult> results(tasks.size());
+  parallelFor(tasks.size(), [&](std::size_t i) {
+    const Task& t = tasks[i];
+    results[i] = linearizeSource(s, o, K, xn, yn, t.slot, ne.keyframes[t.slot], t.touched, t.edges,
+                                 keep_depth_terms);
+  });
 
-    // Per-edge 12×12 blocks of Jᵀ Λ J over (ξ_src, ξ_tgt), per-slot gradients, and the b_k columns.
-    std::vector<Eigen::Matrix<double, 12, 12>> He(edges.size(), Eigen::Matrix<double, 12, 12>::Zero());
-    Eigen::VectorXd g_loc = Eigen::VectorXd::Zero(6 * T);
-    Eigen::MatrixXd B(6 * T, HW);
-    std::vector<int> pix;
-    std::vector<double> hv, gv;
-    pix.reserve(HW);
-    hv.reserve(HW);
-    gv.reserve(HW);
-    PixelFactorLinearization f;
-
-    for (int p = 0; p < HW; ++p) {
-      const double d = s.disps[static_cast<std::size_t>(src) * HW + p];
-      if (!(d > 0)) continue;
-      const double x = p % s.W, y = p / s.W;
-      const int col = static_cast<int>(pix.size());
-      auto b = B.col(col);
-      b.setZero();
-      double h = 0, gd = 0;
-      for (std::size_t q = 0; q < edges.size(); ++q) {
-        const EdgeRef& er = edges[q];
-        const double wx = o.weight_scale * s.weightPlane(er.edge, 0)[p];
-        const double wy = o.weight_scale * s.weightPlane(er.edge, 1)[p];
-        if (wx == 0 && wy == 0) continue;
-        const double Y2 = er.R_ji.row(2).dot(Eigen::Vector3d((x - K.cx) / K.fx, (y - K.cy) / K.fy, 1)) +
-                          er.t_ji.z() * d;
-        if (!keepPixelFactor(o, d, Y2)) {
-          ++ne.stats.factors_filtered;
-          continue;
-        }
-        linearizePixelFactor(er.R_ji, er.t_ji, K, x, y, d, s.targetPlane(er.edge, 0)[p],
-                             s.targetPlane(er.edge, 1)[p], &f);
-        ++ne.stats.factors_used;
-        const double w[2] = {wx, wy};
-        for (int c = 0; c < 2; ++c) {
-          if (w[c] == 0) continue;
-          Eigen::Matrix<double, 1, 12> J;
-          J << f.J_i.row(c), f.J_j.row(c);
-          He[q].noalias() += w[c] * J.transpose() * J;
-          const double wr = w[c] * f.r[c], wJd = w[c] * f.J_d[c];
-          g_loc.segment<6>(0) += wr * f.J_i.row(c).transpose();
-          g_loc.segment<6>(6 * er.target) += wr * f.J_j.row(c).transpose();
-          b.segment<6>(0) += wJd * f.J_i.row(c).transpose();
-          b.segment<6>(6 * er.target) += wJd * f.J_j.row(c).transpose();
-          h += wJd * f.J_d[c];
-          gd += wJd * f.r[c];
-          ne.stats.chi2 += wr * f.r[c];
-        }
-      }
-      if (h > o.depth_info_eps) {
-        pix.push_back(p);
-        hv.push_back(h);
-        gv.push_back(gd);
-      } else if (h > 0) {
-        // b_k b_kᵀ/h_k ≼ (this pixel's share of Hpp) and b_k → 0 with h_k: leaving an
-        // unobservable depth out of the elimination changes S by a negligible amount.
-        ++ne.stats.depths_unobservable;
-      }
-    }
-    const int P = static_cast<int>(pix.size());
-    ne.stats.depths_used += P;
-
-    // Dense local system of the touched slots: Hloc from the edges, then the Schur term
-    // W = Σ_k b_k b_kᵀ / h_k as one rank-P update (B D^-1/2)(B D^-1/2)ᵀ.
-    Eigen::MatrixXd Hloc = Eigen::MatrixXd::Zero(6 * T, 6 * T);
-    for (std::size_t q = 0; q < edges.size(); ++q) {
-      const int t = edges[q].target;
-      Hloc.block<6, 6>(0, 0) += He[q].topLeftCorner<6, 6>();
-      Hloc.block<6, 6>(6 * t, 6 * t) += He[q].bottomRightCorner<6, 6>();
-      Hloc.block<6, 6>(0, 6 * t) += He[q].topRightCorner<6, 6>();
-      Hloc.block<6, 6>(6 * t, 0) += He[q].bottomLeftCorner<6, 6>();
-    }
-    Eigen::MatrixXd Bs = B.leftCols(P);
-    Eigen::VectorXd gS_loc = g_loc;
-    for (int k = 0; k < P; ++k) {
-      gS_loc.noalias() -= Bs.col(k) * (gv[k] / hv[k]);
-      Bs.col(k) /= std::sqrt(hv[k]);
-    }
-    Eigen::MatrixXd Sloc = Hloc;
-    Sloc.selfadjointView<Eigen::Lower>().rankUpdate(Bs, -1.0);
-    Sloc.triangularView<Eigen::StrictlyUpper>() = Sloc.transpose();
-
+  // Merge in source order, so that the result does not depend on the number of threads.
+  for (SourceResult& r : results) {
+    const int T = static_cast<int>(r.touched.size());
     for (int a = 0; a < T; ++a) {
-      ne.g_p.segment<6>(6 * touched[a]) += g_loc.segment<6>(6 * a);
-      ne.g_S.segment<6>(6 * touched[a]) += gS_loc.segment<6>(6 * a);
+      ne.g_p.segment<6>(6 * r.touched[a]) += r.g_loc.segment<6>(6 * a);
+      ne.g_S.segment<6>(6 * r.touched[a]) += r.gS_loc.segment<6>(6 * a);
       for (int c = a; c < T; ++c) {
-        const Matrix6d Hb = Hloc.block<6, 6>(6 * a, 6 * c);
-        if (!Hb.isZero(0)) ne.Hpp.add(touched[a], touched[c], Hb);
-        const Matrix6d Sb = Sloc.block<6, 6>(6 * a, 6 * c);
-        if (a == c || !Sb.isZero(0)) ne.S.add(touched[a], touched[c], Sb);
+        const Matrix6d Hb = r.Hloc.block<6, 6>(6 * a, 6 * c);
+        if (!Hb.isZero(0)) ne.Hpp.add(r.touched[a], r.touched[c], Hb);
+        const Matrix6d Sb = r.Sloc.block<6, 6>(6 * a, 6 * c);
+        if (a == c || !Sb.isZero(0)) ne.S.add(r.touched[a], r.touched[c], Sb);
       }
     }
-
-    if (keep_depth_terms) {
-      DepthTerms dt;
-      dt.source_slot = src_slot;
-      dt.touched = touched;
-      dt.pixel = std::move(pix);
-      dt.h = std::move(hv);
-      dt.g = std::move(gv);
-      dt.B = B.leftCols(P);
-      ne.depths.push_back(std::move(dt));
-    }
+    ne.stats.factors_used += r.stats.factors_used;
+    ne.stats.factors_filtered += r.stats.factors_filtered;
+    ne.stats.depths_used += r.stats.depths_used;
+    ne.stats.depths_unobservable += r.stats.depths_unobservable;
+    ne.stats.chi2 += r.stats.chi2;
+    if (keep_depth_terms) ne.depths.push_back(std::move(r.depth));
   }
   return ne;
 }

@@ -57,33 +57,32 @@ mrpt::serialization::CSerializable::Ptr RawlogReader::next() {
   }
 }
 
-std::size_t forEachRawlogSnapshot(const std::string& path, std::int64_t first_index,
-                                  const std::function<void(Snapshot&)>& process,
-                                  const std::function<void(const InputError&)>& on_invalid) {
-  RawlogReader reader(path);
-  std::size_t n = 0;
-  auto handle = [&](const mrpt::serialization::CSerializable::Ptr& obj, std::size_t entry) {
-    auto snap = std::dynamic_pointer_cast<CObservationDbaSnapshot>(obj);
-    if (!snap) return;
-    snap->snapshot.source = path + "#" + std::to_string(entry);
-    snap->snapshot.index = first_index + static_cast<std::int64_t>(n++);
-    try {
-      snap->snapshot.validate();
-    } catch (const InputError& e) {
-      on_invalid(e);
-      return;
+RawlogSnapshotReader::RawlogSnapshotReader(const std::string& path, std::int64_t first_index)
+    : path_(path), reader_(path), next_index_(first_index) {}
+
+RawlogSnapshotReader::~RawlogSnapshotReader() = default;
+
+bool RawlogSnapshotReader::next(Snapshot* out) {
+  while (true) {
+    while (!pending_.empty()) {
+      auto [obj, entry] = std::move(pending_.front());
+      pending_.erase(pending_.begin());
+      if (auto snap = std::dynamic_pointer_cast<CObservationDbaSnapshot>(obj)) {
+        *out = std::move(snap->snapshot);
+        out->source = path_ + "#" + std::to_string(entry);
+        out->index = next_index_++;
+        return true;
+      }
     }
-    process(snap->snapshot);
-  };
-  while (auto obj = reader.next()) {
-    const std::size_t entry = reader.count() - 1;
+    auto obj = reader_.next();
+    if (!obj) return false;
+    const std::size_t entry = reader_.count() - 1;
     if (auto sf = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(obj)) {
-      for (const auto& o : *sf) handle(o, entry);
+      for (const auto& o : *sf) pending_.emplace_back(o, entry);
     } else {
-      handle(obj, entry);
+      pending_.emplace_back(obj, entry);
     }
   }
-  return n;
 }
 
 }  // namespace dbacov::mrpt_bridge

@@ -21,6 +21,7 @@ struct CovarianceAppOptions {
   std::optional<double> weight_scale, gauge_sigma_rot, gauge_sigma_trans, near, far,
       min_depth_ratio;
   std::optional<std::string> gauge;
+  std::size_t threads = 0;  ///< 0 = all cores
   bool quiet = false;
 
   /// The engine options: the preset, then every option the user gave. Throws

@@ -7,6 +7,8 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <mrpt/serialization/CSerializable.h>
 
@@ -60,14 +62,23 @@ class RawlogReader {
   std::size_t count_ = 0;
 };
 
-/// Calls `process` for every valid DBA snapshot of the rawlog (directly, or inside a
-/// CSensoryFrame), in order, with `source` = "<path>#<entry>" and `index` = first_index + running
-/// count; a snapshot that fails Snapshot::validate goes to `on_invalid` instead and reading goes
-/// on. Objects of other classes are skipped. Throws InputError as RawlogReader::next() does (an
-/// unreadable entry ends the file); snapshots before it have been processed. Returns the number of
-/// snapshots seen (valid or not).
-std::size_t forEachRawlogSnapshot(const std::string& path, std::int64_t first_index,
-                                  const std::function<void(Snapshot&)>& process,
-                                  const std::function<void(const InputError&)>& on_invalid);
+/// The DBA snapshots of a rawlog (directly, or inside a CSensoryFrame), one at a time; objects of
+/// other classes are skipped.
+class RawlogSnapshotReader {
+ public:
+  /// Throws InputError when the file cannot be opened.
+  RawlogSnapshotReader(const std::string& path, std::int64_t first_index);
+  ~RawlogSnapshotReader();
+  /// The next snapshot, with `source` = "<path>#<entry>" and `index` = first_index + count;
+  /// false at the end. Values are not validated (Snapshot::validate is the caller's, so that one
+  /// invalid snapshot does not end the file). Throws InputError as RawlogReader::next() does.
+  bool next(Snapshot* out);
+
+ private:
+  std::string path_;
+  RawlogReader reader_;
+  std::int64_t next_index_;
+  std::vector<std::pair<mrpt::serialization::CSerializable::Ptr, std::size_t>> pending_;
+};
 
 }  // namespace dbacov::mrpt_bridge

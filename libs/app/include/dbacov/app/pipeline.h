@@ -1,0 +1,28 @@
+// Independent snapshots in parallel: read in order, compute concurrently, consume in order.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "dbacov/app/snapshot_inputs.h"
+#include "dbacov/core/covariance.h"
+
+namespace dbacov::app {
+
+struct PipelineItem {
+  SnapshotItem input;                   ///< the snapshot, or why it could not be read
+  std::unique_ptr<DbaCovariance> cov;   ///< set by `compute` on success
+  std::string error;                    ///< set by `compute` on failure
+};
+
+/// Reads `stream` on one thread, runs `compute` on up to `in_flight` items concurrently (the TBB
+/// pool, within the process-wide ThreadLimit), and calls `consume` on one item at a time in input
+/// order. At most `in_flight` snapshots are in memory, so memory does not grow with the length of
+/// the input. Exceptions from the stages propagate (the pipeline stops).
+void runSnapshotPipeline(SnapshotStream& stream, std::size_t in_flight,
+                         const std::function<void(PipelineItem&)>& compute,
+                         const std::function<void(PipelineItem&)>& consume);
+
+}  // namespace dbacov::app

@@ -1,0 +1,174 @@
+#include "dba_kernel.h"
+
+#include <cmath>
+
+namespace dbacov::kernel {
+
+void Accumulator::reset(int touched, int edges, bool keep_depth_terms) {
+  T = touched;
+  E = edges;
+  aug.assign(static_cast<std::size_t>(E) * 13 * 13, 0.0);
+  W.assign(static_cast<std::size_t>(36) * T * T, 0.0);
+  gS.assign(6 * T, 0.0);
+  factors_used = factors_filtered = depths_used = depths_unobservable = 0;
+  keep_depths = keep_depth_terms;
+  pixel.clear();
+  h.clear();
+  g.clear();
+  B.clear();
+  rows.assign(static_cast<std::size_t>(2) * kRow * kChunk, 0.0);
+  b.assign(static_cast<std::size_t>(6) * T * kChunk, 0.0);
+  hv.assign(kChunk, 0.0);
+  gv.assign(kChunk, 0.0);
+}
+
+// Compiled for AVX2+FMA and for the baseline; the dynamic loader picks one (ifunc).
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+void processChunk(const Camera& cam, const Filter& flt, int p0, int n, const double* xn,
+                  const double* yn, const double* d, const Edge* edges, Accumulator& acc) {
+  const int T6 = 6 * acc.T;
+  double* b = acc.b.data();  // b[m * kChunk + p]: entry m of b_k for lane p
+  double* hv = acc.hv.data();
+  double* gv = acc.gv.data();
+  for (int i = 0; i < T6 * kChunk; ++i) b[i] = 0.0;
+  for (int p = 0; p < kChunk; ++p) hv[p] = gv[p] = 0.0;
+  const bool has_min = flt.min_depth_ratio > 0, has_near = flt.near > 0, has_far = flt.far > 0;
+
+  for (int q = 0; q < acc.E; ++q) {
+    const Edge& e = edges[q];
+    const double* R = e.R;
+    double* A0 = acc.rows.data();              // row of channel x: A0[k * kChunk + p]
+    double* A1 = A0 + kRow * kChunk;           // row of channel y
+    std::size_t used = 0, filtered = 0;
+#pragma omp simd reduction(+ : used, filtered)
+    for (int p = 0; p < n; ++p) {
+      const double x = xn[p], y = yn[p], dd = d[p];
+      const double w0 = flt.weight_scale * e.wx[p0 + p], w1 = flt.weight_scale * e.wy[p0 + p];
+      // Y = R_ji [x y 1]ᵀ + t_ji d   (SPEC §2)
+      const double Y0 = R[0] * x + R[1] * y + R[2] + e.t[0] * dd;
+      const double Y1 = R[3] * x + R[4] * y + R[5] + e.t[1] * dd;
+      const double Y2 = R[6] * x + R[7] * y + R[8] + e.t[2] * dd;
+      const bool any = (w0 > 0 || w1 > 0) && dd > 0;
+      const bool keep = Y2 > 0 && (!has_min || Y2 >= flt.min_depth_ratio) &&
+                        (!has_near || (dd * flt.near < 1.0 && Y2 > flt.near * dd)) &&
+                        (!has_far || dd * flt.far > 1.0);
+      const bool ok = any && keep;
+      used += ok;
+      filtered += any && !keep;
+      const double s0 = ok ? std::sqrt(w0) : 0.0, s1 = ok ? std::sqrt(w1) : 0.0;
+      const double iz = ok ? 1.0 / Y2 : 0.0;
+      // −∂π/∂Y rows: m0 = [a 0 c], m1 = [0 e f]
+      const double a = -cam.fx * iz, c = cam.fx * Y0 * iz * iz;
+      const double ee = -cam.fy * iz, f = cam.fy * Y1 * iz * iz;
+      // mR_c = m_c R_ji
+      const double r00 = a * R[0] + c * R[6], r01 = a * R[1] + c * R[7], r02 = a * R[2] + c * R[8];
+      const double r10 = ee * R[3] + f * R[6], r11 = ee * R[4] + f * R[7], r12 = ee * R[5] + f * R[8];
+      const double res0 = e.tx[p0 + p] - (cam.fx * Y0 * iz + cam.cx);
+      const double res1 = e.ty[p0 + p] - (cam.fy * Y1 * iz + cam.cy);
+      // J_i = [d·mR, p × mR],  J_j = [−d·m, m × Y],  J_d = m·t  (p = [x y 1])
+      double* o0 = A0 + p;
+      o0[0 * kChunk] = s0 * dd * r00;
+      o0[1 * kChunk] = s0 * dd * r01;
+      o0[2 * kChunk] = s0 * dd * r02;
+      o0[3 * kChunk] = s0 * (y * r02 - r01);
+      o0[4 * kChunk] = s0 * (r00 - x * r02);
+      o0[5 * kChunk] = s0 * (x * r01 - y * r00);
+      o0[6 * kChunk] = -s0 * dd * a;
+      o0[7 * kChunk] = 0.0;
+      o0[8 * kChunk] = -s0 * dd * c;
+      o0[9 * kChunk] = s0 * (-c * Y1);
+      o0[10 * kChunk] = s0 * (c * Y0 - a * Y2);
+      o0[11 * kChunk] = s0 * (a * Y1);
+      o0[12 * kChunk] = s0 * res0;
+      o0[13 * kChunk] = s0 * (a * e.t[0] + c * e.t[2]);
+      double* o1 = A1 + p;
+      o1[0 * kChunk] = s1 * dd * r10;
+      o1[1 * kChunk] = s1 * dd * r11;
+      o1[2 * kChunk] = s1 * dd * r12;
+      o1[3 * kChunk] = s1 * (y * r12 - r11);
+      o1[4 * kChunk] = s1 * (r10 - x * r12);
+      o1[5 * kChunk] = s1 * (x * r11 - y * r10);
+      o1[6 * kChunk] = 0.0;
+      o1[7 * kChunk] = -s1 * dd * ee;
+      o1[8 * kChunk] = -s1 * dd * f;
+      o1[9 * kChunk] = s1 * (ee * Y2 - f * Y1);
+      o1[10 * kChunk] = s1 * (f * Y0);
+      o1[11 * kChunk] = s1 * (-ee * Y0);
+      o1[12 * kChunk] = s1 * res1;
+      o1[13 * kChunk] = s1 * (ee * e.t[1] + f * e.t[2]);
+    }
+    acc.factors_used += used;
+    acc.factors_filtered += filtered;
+
+    // Normal equations of the edge: aug += Σ_lanes a aᵀ over both channels (upper triangle).
+    double* aug = &acc.aug[static_cast<std::size_t>(q) * 169];
+    for (int r = 0; r < 13; ++r)
+      for (int s = r; s < 13; ++s) {
+        const double *x0 = A0 + r * kChunk, *y0 = A0 + s * kChunk;
+        const double *x1 = A1 + r * kChunk, *y1 = A1 + s * kChunk;
+        double sum = 0.0;
+#pragma omp simd reduction(+ : sum)
+        for (int p = 0; p < n; ++p) sum += x0[p] * y0[p] + x1[p] * y1[p];
+        aug[r * 13 + s] += sum;
+      }
+    // Depth coupling per lane: b_k[src] += J_iᵀ Λ J_d, b_k[tgt] += J_jᵀ Λ J_d, h_k, g_k.
+    const double *d0 = A0 + 13 * kChunk, *d1 = A1 + 13 * kChunk;
+    for (int k = 0; k < 6; ++k) {
+      double* bs = b + k * kChunk;
+      double* bt = b + (6 * e.target + k) * kChunk;
+      const double *i0 = A0 + k * kChunk, *i1 = A1 + k * kChunk;
+      const double *j0 = A0 + (6 + k) * kChunk, *j1 = A1 + (6 + k) * kChunk;
+#pragma omp simd
+      for (int p = 0; p < n; ++p) {
+        bs[p] += i0[p] * d0[p] + i1[p] * d1[p];
+        bt[p] += j0[p] * d0[p] + j1[p] * d1[p];
+      }
+    }
+    const double *q0 = A0 + 12 * kChunk, *q1 = A1 + 12 * kChunk;
+#pragma omp simd
+    for (int p = 0; p < n; ++p) {
+      hv[p] += d0[p] * d0[p] + d1[p] * d1[p];
+      gv[p] += d0[p] * q0[p] + d1[p] * q1[p];
+    }
+  }
+
+  // Eliminate the observable depths: scale b_k by 1/√h_k (others to zero) and accumulate
+  // gS += b_k g_k / h_k and W += (b_k/√h_k)(b_k/√h_k)ᵀ over the lanes.
+  double ratio[kChunk], scale[kChunk];
+  for (int p = 0; p < n; ++p) {
+    const bool kept = hv[p] > flt.depth_info_eps;
+    scale[p] = kept ? 1.0 / std::sqrt(hv[p]) : 0.0;
+    ratio[p] = kept ? gv[p] / hv[p] : 0.0;
+    if (kept) {
+      ++acc.depths_used;
+      if (acc.keep_depths) {
+        acc.pixel.push_back(p0 + p);
+        acc.h.push_back(hv[p]);
+        acc.g.push_back(gv[p]);
+        for (int m = 0; m < T6; ++m) acc.B.push_back(b[m * kChunk + p]);
+      }
+    } else if (hv[p] > 0) {
+      ++acc.depths_unobservable;
+    }
+  }
+  for (int m = 0; m < T6; ++m) {
+    double* bm = b + m * kChunk;
+    double sum = 0.0;
+#pragma omp simd reduction(+ : sum)
+    for (int p = 0; p < n; ++p) {
+      sum += bm[p] * ratio[p];
+      bm[p] *= scale[p];
+    }
+    acc.gS[m] += sum;
+  }
+  for (int r = 0; r < T6; ++r)
+    for (int s = 0; s <= r; ++s) {
+      const double *x = b + r * kChunk, *y = b + s * kChunk;
+      double sum = 0.0;
+#pragma omp simd reduction(+ : sum)
+      for (int p = 0; p < n; ++p) sum += x[p] * y[p];
+      acc.W[r * T6 + s] += sum;
+    }
+}
+
+}  // namespace dbacov::kernel

@@ -1,0 +1,62 @@
+// Private to dbacov_core: the inner kernel of linearizeDba, in structure-of-arrays form.
+//
+// One call processes a chunk of consecutive pixels of one source keyframe against every edge
+// leaving it. Pixels are the SIMD lanes: every per-pixel quantity lives in a short array, invalid
+// lanes (d <= 0, zero weight, filtered, behind the camera) carry zero whitening weight, and the
+// reductions over pixels (normal equations, Schur update) run as dot products over those arrays.
+// The function is compiled twice (GCC target_clones: Haswell-class AVX2+FMA and the x86-64
+// baseline) and the loader picks the variant the CPU supports. It uses no Eigen and no heap memory:
+// Eigen's allocation code must not be instantiated with two different alignments in one process.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+namespace dbacov::kernel {
+
+constexpr int kChunk = 64;   ///< pixels per chunk (lanes)
+constexpr int kRow = 14;     ///< whitened row: J_i (6), J_j (6), r (1), J_d (1)
+
+struct Camera {
+  double fx, fy, cx, cy;
+};
+
+/// The pixel filters of SPEC §2 (DbaOptions), as plain numbers: a non-positive value means "off".
+struct Filter {
+  double weight_scale;
+  double min_depth_ratio;  ///< keep Y2 >= this (≤ 0: only Y2 > 0)
+  double near;             ///< keep d·near < 1 and Y2 > near·d
+  double far;              ///< keep d·far > 1
+  double depth_info_eps;   ///< eliminate a depth only if h > this
+};
+
+struct Edge {
+  double R[9];  ///< R_ji, row-major
+  double t[3];  ///< t_ji
+  int target;   ///< position of the target keyframe among the touched slots (>= 1)
+  const float *wx, *wy, *tx, *ty;  ///< weight and target planes of the edge (H×W)
+};
+
+/// Everything one source keyframe accumulates; sized by reset().
+struct Accumulator {
+  int T = 0, E = 0;               ///< touched slots, edges
+  std::vector<double> aug;        ///< E × 13 × 13 per edge, Σ aᵀa of a = √w·[J_i J_j r] (upper)
+  std::vector<double> W;          ///< 6T × 6T, Σ_k b_k b_kᵀ / h_k (lower triangle, row-major)
+  std::vector<double> gS;         ///< 6T, Σ_k b_k g_k / h_k
+  std::size_t factors_used = 0, factors_filtered = 0, depths_used = 0, depths_unobservable = 0;
+  // Depth terms of the kept depths, when requested (keep_depth_terms).
+  bool keep_depths = false;
+  std::vector<int> pixel;
+  std::vector<double> h, g, B;    ///< B: 6T values per kept depth, appended
+  // Scratch reused by every chunk.
+  std::vector<double> rows, b, hv, gv;
+
+  void reset(int touched, int edges, bool keep_depth_terms);
+};
+
+/// Accumulates pixels [p0, p0 + n) (n <= kChunk). xn, yn: normalized coordinates of those
+/// pixels; d: their inverse depths.
+void processChunk(const Camera& cam, const Filter& filter, int p0, int n, const double* xn,
+                  const double* yn, const double* d, const Edge* edges, Accumulator& acc);
+
+}  // namespace dbacov::kernel
