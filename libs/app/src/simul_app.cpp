@@ -2,43 +2,74 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 
 #include <CLI/CLI.hpp>
 
 #include "dbacov/app/csv_format.h"
+#include "dbacov/app/progress.h"
+#include "dbacov/app/scenario_options.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/io/snapshot_npz.h"
-#include "dbacov/sim/synthetic_snapshot.h"
+#include "dbacov/mrpt/observation_dba_snapshot.h"
+#include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/sim/scenario.h"
+#include "dbacov/sim/scenario_json.h"
 
 namespace dbacov::app {
+namespace {
+
+constexpr const char* kFooter = R"(
+Outputs (all written atomically):
+  DIR/snapshot_NNNN.npz  one DROID snapshot per DBA (SPEC 1 format: poses T_cw, disps, targets,
+                         weights, tstamp = 3 k, timestamps_s = start + tstamp / fps, id = N);
+                         not with --no-npz
+  DIR/groundtruth.tum    every keyframe of the sequence: t tx ty tz qx qy qz qw, camera-to-world,
+                         t in seconds, full precision
+  DIR/scenario.json      the effective configuration (reproduces the run with --config)
+  --rawlog FILE          the snapshots as a rawlog of dbacov::CObservationDbaSnapshot (as
+                         droid2rawlog writes it; read it with dba-covariance -i FILE)
+Model: a camera moves through a room (walls and boxes, depths by ray casting); edges link temporal
+neighbours and keyframes whose views overlap (both directions). Confidences w per pixel and axis
+come from the weight distribution; pixels that are hidden or leave the other view get w = 0.
+Targets are the true projections plus noise of variance amplitude^2 / (weight_scale w): white, or
+a Gaussian random field per edge and axis with the given correlation length (then the
+independent-pixel covariances are over-confident).
+State: the truth perturbed, then solved by Levenberg-Marquardt (depth Schur complement) to the
+optimum of the snapshot's own measurements, with DROID's pixel filter (z_j d >= 0.25) and the gauge
+held AT THE TRUTH (two-pose: the two lowest keyframes of ii stay at their true poses; minimal: the
+first one and the true distance to the second). So the estimate lives in the true frame and scale,
+and `dba-covariance --weight-scale X [--gauge G]` with the same X and gauge gives covariances that
+are consistent for white noise (absolute NEES is meaningful).
+Sliding window: snapshot s holds keyframes 0..s+W-1 and edges among the last W. Whole: one snapshot.
+Every snapshot redraws its noise (DROID re-predicts targets); --run selects the noise draw (Monte
+Carlo runs of one scenario share the geometry and confidences). Seeded and reproducible.
+Exit status: 0 success, 1 when a snapshot or output failed (the others are still written), 2 on
+bad usage.)";
+
+}  // namespace
 
 int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
-  std::string out_dir;
-  int snapshots = 5, window = 8;
-  sim::SyntheticSnapshotConfig c;
-  c.H = 24;
-  c.W = 32;
-  CLI::App cli{"simul-dba: synthetic DROID-like DBA snapshots with ground truth", "simul-dba"};
-  cli.footer(R"(
-Writes DIR/snapshot_NNNN.npz (the DROID snapshot format, with keyframe times 'timestamps_s' =
-start + tstamp / fps) and DIR/groundtruth.tum (t tx ty tz qx qy qz qw, camera-to-world, t in seconds).
-Snapshot s holds keyframes 0..s+W-1 in 'poses' and edges among its last W keyframes, like
-DROID-SLAM's sliding window. The stored state is the ground truth; targets are
-true projections plus Gaussian noise of variance 1/(weight_scale*w) per axis, so
-`dba-covariance --weight-scale X` with the same X is consistent.)");
+  std::string out_dir, rawlog_path, label = "DBA_SNAPSHOT";
+  std::uint64_t run = 0;
+  bool no_npz = false, quiet = false;
+  ScenarioOptions scenario;
+  CLI::App cli{"simul-dba: simulated DROID-SLAM DBA snapshots with ground truth", "simul-dba"};
+  cli.footer(kFooter);
   cli.add_option("-o,--out-dir", out_dir, "Output directory (created if missing)")->required();
-  cli.add_option("--snapshots", snapshots, "Number of snapshots")->check(CLI::Range(1, 100000));
-  cli.add_option("--window", window, "Keyframes per snapshot graph")->check(CLI::Range(2, 1000));
-  cli.add_option("--height", c.H, "Grid height (pixels)")->check(CLI::Range(2, 4096));
-  cli.add_option("--width", c.W, "Grid width (pixels)")->check(CLI::Range(2, 4096));
-  cli.add_option("--edge-radius", c.covisibility.edge_radius, "Link keyframes at most this far apart")->check(CLI::Range(1, 1000));
-  cli.add_option("--weight-scale", c.weight_scale, "Information per unit confidence, px^-2")->check(CLI::PositiveNumber);
-  cli.add_option("--seed", c.seed, "Random seed");
-  double fps = 20.0, start_time = 1.7e9;
-  cli.add_option("--fps", fps, "Camera rate: keyframe times 'timestamps_s' = start + tstamp / fps")->check(CLI::PositiveNumber);
-  cli.add_option("--start-time", start_time, "Time of image 0, seconds since 1970 (MRPT treats 0 as 'no time')");
+  cli.add_option("--rawlog", rawlog_path,
+                 "Also write the snapshots as a rawlog of CObservationDbaSnapshot");
+  cli.add_option("--label", label, "sensorLabel of the rawlog's snapshot observations");
+  cli.add_flag("--no-npz", no_npz, "Do not write the .npz snapshots (use with --rawlog)");
+  cli.add_option("--run", run, "Noise draw (Monte Carlo run) of the scenario, default 0");
+  cli.add_flag("-q,--quiet", quiet, "No progress display, warnings only");
+  scenario.add(cli);
+  sim::ScenarioConfig config;
   try {
     cli.parse(argc, argv);
+    config = scenario.resolve();
+    if (no_npz && rawlog_path.empty())
+      throw std::invalid_argument("--no-npz leaves no snapshot output: add --rawlog");
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) {
       out << cli.help();
@@ -46,41 +77,78 @@ true projections plus Gaussian noise of variance 1/(weight_scale*w) per axis, so
     }
     err << "simul-dba: " << e.what() << "\nRun with --help for usage.\n";
     return 2;
+  } catch (const std::exception& e) {
+    err << "simul-dba: " << e.what() << "\nRun with --help for usage.\n";
+    return 2;
   }
-  // Intrinsics follow the grid (≈ 60° horizontal field of view).
-  c.fx = c.fy = 0.87 * c.W;
-  c.cx = 0.5 * (c.W - 1);
-  c.cy = 0.5 * (c.H - 1);
+
+  int written = 0, failed = 0, not_converged = 0, max_iterations = 0;
   try {
-    std::filesystem::create_directories(out_dir);
-    const std::uint64_t seed = c.seed;
-    for (int s = 0; s < snapshots; ++s) {
-      c.num_keyframes = s + window;
-      c.first_keyframe = s;
-      c.seed = seed + static_cast<std::uint64_t>(s);
-      c.id = s;
-      sim::SyntheticSnapshot syn = sim::generateSyntheticSnapshot(c);
-      deriveKeyframeTimes(syn.snapshot, fps);
-      for (double& t : *syn.snapshot.timestamps_s) t += start_time;
+    const sim::Scenario sc(config);
+    std::error_code ec;
+    std::filesystem::create_directories(out_dir, ec);
+    if (ec || !std::filesystem::is_directory(out_dir))
+      throw InputError(out_dir + ": cannot create the output directory" +
+                       (ec ? ": " + ec.message() : ""));
+    std::unique_ptr<mrpt_bridge::RawlogWriter> rawlog;
+    if (!rawlog_path.empty()) rawlog = std::make_unique<mrpt_bridge::RawlogWriter>(rawlog_path);
+    Progress progress(err, sc.numSnapshots(), !quiet);
+    for (int s = 0; s < sc.numSnapshots(); ++s) {
       char name[64];
-      std::snprintf(name, sizeof name, "/snapshot_%04d.npz", s);
-      io::saveSnapshotNpz(out_dir + name, syn.snapshot);
+      std::snprintf(name, sizeof name, "snapshot_%04d.npz", s);
+      progress.step(name);
+      try {
+        sim::SimulatedSnapshot sim = sc.simulate(s, run);
+        max_iterations = std::max(max_iterations, sim.solver.iterations);
+        if (config.solve && !sim.solver.converged()) {
+          ++not_converged;
+          progress.clear();
+          err << "simul-dba: warning: snapshot " << s << ": the DBA solve did not converge ("
+              << sim.solver.brief() << ")\n";
+        }
+        if (!no_npz) io::saveSnapshotNpz(out_dir + "/" + name, sim.snapshot);
+        if (rawlog) {
+          CObservationDbaSnapshot obs;
+          obs.timestamp =
+              mrpt::Clock::fromDouble(keyframeTime(sim.snapshot, newestKeyframe(sim.snapshot)));
+          obs.sensorLabel = label;
+          obs.snapshot = std::move(sim.snapshot);
+          rawlog->write(obs);
+        }
+        ++written;
+      } catch (const std::exception& e) {
+        progress.clear();
+        err << "simul-dba: error: snapshot " << s << ": " << e.what() << '\n';
+        ++failed;
+      }
     }
-    c.num_keyframes = snapshots + window - 1;
+    progress.clear();
+    if (rawlog) rawlog->commit();
     io::writeFileAtomically(out_dir + "/groundtruth.tum", [&](std::ostream& os) {
-      for (int k = 0; k < c.num_keyframes; ++k) {
-        const auto tq = poseToTQ(sim::trajectoryPose(c.trajectory, k));
-        os << formatDouble(start_time + c.frame_interval * k / fps);
+      for (int k = 0; k < sc.numKeyframes(); ++k) {
+        const auto tq = poseToTQ(sc.groundTruth()[k]);
+        os << formatDouble(sc.keyframeTime(k));
         for (int i = 0; i < 7; ++i) os << ' ' << formatDouble(tq[i]);
         os << '\n';
       }
     });
+    io::writeFileAtomically(out_dir + "/scenario.json",
+                            [&](std::ostream& os) { os << sim::scenarioConfigToJson(config); });
   } catch (const std::exception& e) {
     err << "simul-dba: error: " << e.what() << '\n';
     return 1;
   }
-  out << "simul-dba: wrote " << snapshots << " snapshots and groundtruth.tum to " << out_dir << '\n';
-  return 0;
+  if (!quiet) {
+    out << "simul-dba: wrote " << written << " snapshots";
+    if (!no_npz) out << " (" << out_dir << "/snapshot_NNNN.npz)";
+    if (!rawlog_path.empty()) out << ", rawlog " << rawlog_path;
+    out << ", groundtruth.tum and scenario.json to " << out_dir;
+    if (config.solve)
+      out << "; DBA solves: " << (written - not_converged) << " converged, at most "
+          << max_iterations << " iterations";
+    out << '\n';
+  }
+  return failed ? 1 : 0;
 }
 
 }  // namespace dbacov::app

@@ -13,23 +13,6 @@
 namespace dbacov {
 namespace {
 
-/// Inverse right Jacobian of SE(3) in the [ρ; φ] layout: Log(Exp(e) Exp(δ)) ≈ e + Jr(e)⁻¹ δ, with
-/// Jr(e) = Σ_k (−ad e)^k / (k+1)!, ad(e) = [hat φ, hat ρ; 0, hat φ]. The priors only ever see
-/// small deviations (a fraction of their sigmas), where the series converges in a few terms.
-Matrix6d rightJacobianInvSE3(const Vector6d& e) {
-  Matrix6d ad = Matrix6d::Zero();
-  ad.topLeftCorner<3, 3>() = hat(e.tail<3>());
-  ad.topRightCorner<3, 3>() = hat(e.head<3>());
-  ad.bottomRightCorner<3, 3>() = hat(e.tail<3>());
-  Matrix6d Jr = Matrix6d::Identity(), term = Matrix6d::Identity();
-  for (int k = 1; k < 40; ++k) {
-    term = term * (-ad) / static_cast<double>(k + 1);
-    Jr += term;
-    if (term.cwiseAbs().maxCoeff() < 1e-17) break;
-  }
-  return Jr.inverse();
-}
-
 /// A soft two-pose prior, centred on the pose the solve started from.
 struct Prior {
   int slot = -1;
@@ -66,10 +49,11 @@ Linearization linearize(const Snapshot& s, const DbaOptions& o, const std::vecto
   const int n = static_cast<int>(L.ne.keyframes.size());
   L.prior_grad.assign(n, Eigen::VectorXd());
   for (const Prior& p : priors) {
-    // e = Log(T0⁻¹ T Exp(δ)) ≈ e + Jr(e)⁻¹ δ; in reduced coordinates e_r = Bᵀ e, J = Bᵀ Jr⁻¹ B.
+    // e = Log(T0⁻¹ T Exp(δ)) ≈ e + Jr(e)⁻¹ δ (se3.h); in reduced coordinates e_r = Bᵀ e,
+    // J = Bᵀ Jr⁻¹ B. The priors only ever see small deviations, where Jr is well conditioned.
     const Eigen::MatrixXd& B = L.gauge.basis[p.slot];
     const Vector6d e = logSE3(p.T0.inverse() * s.T_wc(L.ne.keyframes[p.slot]));
-    const Eigen::MatrixXd J = B.transpose() * rightJacobianInvSE3(e) * B;
+    const Eigen::MatrixXd J = B.transpose() * rightJacobianSE3(e).inverse() * B;
     const Eigen::VectorXd e_r = B.transpose() * e;
     L.cost += 0.5 * e_r.dot(p.P * e_r);
     L.gauge.prior[p.slot] = J.transpose() * p.P * J;

@@ -13,6 +13,18 @@ TrajectoryType parseTrajectoryType(const std::string& name) {
                               "', expected line, loop or explore-return");
 }
 
+std::string toString(TrajectoryType type) {
+  switch (type) {
+    case TrajectoryType::Line:
+      return "line";
+    case TrajectoryType::Loop:
+      return "loop";
+    case TrajectoryType::ExploreReturn:
+      return "explore-return";
+  }
+  return "?";
+}
+
 namespace {
 
 /// Small attitude wobble so that no rotation DoF is degenerate.
@@ -39,7 +51,8 @@ Eigen::Isometry3d trajectoryPose(const TrajectoryConfig& c, int k) {
       const int half = (c.num_keyframes + 1) / 2;
       const double s = k < half ? t : 2.0 * (half - 1) - t;
       const double back = k < half ? 0.0 : 1.0;
-      T.translation() << c.step * s, 0.05 * std::sin(0.7 * t) + 0.1 * back, 0.03 * std::cos(0.5 * t);
+      T.translation() << c.step * s, 0.05 * std::sin(0.7 * t) + 0.1 * back,
+          0.03 * std::cos(0.5 * t);
       T.linear() = wobble(t, c.yaw_amplitude);
       break;
     }

@@ -20,12 +20,14 @@ enum class TrajectoryType {
 
 /// "line", "loop", "explore-return"; throws std::invalid_argument otherwise.
 TrajectoryType parseTrajectoryType(const std::string& name);
+/// The name parseTrajectoryType reads.
+std::string toString(TrajectoryType type);
 
 struct TrajectoryConfig {
   TrajectoryType type = TrajectoryType::Line;
-  int num_keyframes = 8;         ///< length (ExploreReturn turns around at the middle)
-  double step = 0.12;            ///< metres between consecutive keyframes (Line, ExploreReturn)
-  double yaw_amplitude = 0.15;   ///< radians of the slow yaw wave (Line, ExploreReturn)
+  int num_keyframes = 8;        ///< length (ExploreReturn turns around at the middle)
+  double step = 0.12;           ///< metres between consecutive keyframes (Line, ExploreReturn)
+  double yaw_amplitude = 0.15;  ///< radians of the slow yaw wave (Line, ExploreReturn)
   Eigen::Vector3d loop_center{1.5, 0.0, 1.5};
   double loop_radius = 1.0;
   int keyframes_per_lap = 60;

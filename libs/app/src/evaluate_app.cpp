@@ -1,0 +1,331 @@
+#include "dbacov/app/evaluate_app.h"
+
+#include <optional>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+
+#include "dbacov/app/evaluation_inputs.h"
+#include "dbacov/app/evaluation_report.h"
+#include "dbacov/app/progress.h"
+#include "dbacov/app/scenario_options.h"
+#include "dbacov/io/atomic_file.h"
+#include "dbacov/sim/monte_carlo.h"
+
+namespace dbacov::app {
+namespace {
+
+constexpr const char* kFooter = R"(
+Conventions (SPEC 3 and 7):
+  Error e = Log(T_est^-1 T_true) in the tangent [rho; phi] of the right perturbation
+  T_wc Exp(xi); NEES = e' Sigma^+ e over the range of Sigma (DoF = its rank; hard-fixed keyframes
+  are no sample). ANEES = mean NEES. Its 95% region is [chi2_{N k}(0.025), chi2_{N k}(0.975)] / N
+  for N independent runs of k DoF; samples of one run (the keyframes of one snapshot) are
+  correlated, so the region is computed with N = number of runs (snapshots, or Monte Carlo runs x
+  snapshots), which is conservative for the pooled ANEES. Coverage: fraction of |e_i| <= m sigma_i,
+  m = 1, 2, 3 (nominal 68.3 / 95.4 / 99.7 %). Spearman: rank correlation between sqrt(trace) of the
+  predicted translation (rotation) covariance and the norm of the actual error.
+  Absolute NEES needs the estimate in the truth's frame and scale, i.e. the gauge held at the truth
+  (simul-dba does that); with --align sim3 (real data) only relative NEES is computed, each
+  snapshot scaled by its similarity alignment to the truth. Relative NEES: pairs of consecutive
+  graph keyframes, Z = T_a^-1 T_b, covariance from the joint marginal (--relative-csv). It does
+  not depend on where the gauge holds the frame; with the two-pose gauge it is conditioned on the
+  relative pose of the two gauge keyframes, which only the minimal gauge leaves free (use
+  dba-covariance --gauge minimal on real data).
+  Calibration: Sigma -> k Sigma divides every NEES by k; k = sum NEES / sum DoF of the relative
+  samples (absolute when there are none) makes the ANEES equal its DoF. dba-covariance
+  --weight-scale (weight scale / k) applies it.
+Files: --csv and --relative-csv are dba-covariance's tables; keyframe times are start + tstamp/fps
+  (--fps, --start-time) or the tstamp-th line of --image-times (e.g. EuRoC cam0/data.csv). A pose
+  rawlog (dba-covariance -o) carries times; its covariances are converted back from
+  [x y z yaw pitch roll] to the tangent. Ground truth: TUM (t tx ty tz qx qy qz qw, camera-to-world)
+  or EuRoC's data.csv (ns, body frame: give the camera's T_BS with --body-to-camera).
+Monte Carlo: --monte-carlo N simulates every snapshot of the scenario N times (noise draws), with
+  covariances at the scenario's weight scale and gauge. --calibration-runs M fits k on runs 0..M-1
+  and evaluates runs M..N-1 (held out).
+Exit status: 0 success, 1 when an input or output failed or nothing could be evaluated, 2 on bad
+usage.)";
+
+struct EvaluateOptions {
+  std::string csv, relative_csv, rawlog, rawlog_label, gt,
+      gt_format = "auto", image_times, align = "none", pairs = "consecutive", json, samples_csv;
+  std::vector<double> body_to_camera;
+  double time_tolerance = 1e-3, max_gap = 0.1;
+  int monte_carlo = 0, first_run = 0, calibration_runs = 0;
+  bool calibrate = false, quiet = false;
+  std::optional<double> inflation;
+  ScenarioOptions scenario;
+};
+
+/// Checks the combination of options; throws std::invalid_argument with the reason.
+void checkUsage(const EvaluateOptions& o) {
+  const bool files = !o.csv.empty() || !o.relative_csv.empty() || !o.rawlog.empty();
+  if (o.monte_carlo > 0) {
+    if (files || !o.gt.empty())
+      throw std::invalid_argument(
+          "--monte-carlo simulates its own data: no --csv, --relative-csv, --rawlog or --gt");
+    if (o.calibration_runs >= o.monte_carlo)
+      throw std::invalid_argument(
+          "--calibration-runs must be smaller than --monte-carlo (runs are held out for "
+          "evaluation)");
+    return;
+  }
+  if (o.scenario.anyScenarioSetting())
+    throw std::invalid_argument("scenario options apply to --monte-carlo only");
+  if (o.calibration_runs > 0)
+    throw std::invalid_argument(
+        "--calibration-runs applies to --monte-carlo only (use --calibrate)");
+  if (!files)
+    throw std::invalid_argument(
+        "nothing to evaluate: give --csv [--relative-csv], --rawlog, or --monte-carlo N");
+  if (o.gt.empty()) throw std::invalid_argument("--gt is required with covariance files");
+  if (!o.relative_csv.empty() && o.csv.empty())
+    throw std::invalid_argument("--relative-csv needs --csv (it gives the keyframes' times)");
+  if (!o.csv.empty() && !o.scenario.fps && o.image_times.empty())
+    throw std::invalid_argument(
+        "--csv needs --fps [--start-time] or --image-times to turn tstamp into seconds");
+  if (o.align == "sim3" && !o.rawlog.empty())
+    throw std::invalid_argument(
+        "--align sim3 needs --csv/--relative-csv (a rawlog has no joint covariances)");
+  if (!o.body_to_camera.empty() && o.body_to_camera.size() != 7)
+    throw std::invalid_argument("--body-to-camera takes 7 numbers: tx ty tz qx qy qz qw");
+}
+
+std::vector<ReportSection> fileSections(const EvaluateOptions& o, std::ostream& err,
+                                        bool* any_failed) {
+  GroundTruth gt = GroundTruth::load(o.gt, parseGroundTruthFormat(o.gt_format));
+  if (!o.body_to_camera.empty()) gt.applyBodyToCamera(poseFromTQ(o.body_to_camera.data()));
+  FileSampleOptions fo;
+  fo.time_tolerance = o.time_tolerance;
+  fo.max_gap = o.max_gap;
+  fo.align_sim3 = o.align == "sim3";
+  fo.consecutive_only = o.pairs == "consecutive";
+  std::vector<ReportSection> sections;
+  auto report_skipped = [&](const std::vector<std::string>& skipped) {
+    for (std::size_t i = 0; i < skipped.size() && i < 5; ++i)
+      err << "dba-evaluate: warning: " << skipped[i] << '\n';
+    if (skipped.size() > 5)
+      err << "dba-evaluate: warning: ... and " << skipped.size() - 5
+          << " more rows without ground truth\n";
+  };
+  const std::string pair_title = fo.consecutive_only ? "consecutive keyframes" : "co-visible pairs";
+  if (!o.csv.empty()) {
+    const KeyframeTimes times =
+        o.image_times.empty()
+            ? KeyframeTimes::fromRate(*o.scenario.fps, o.scenario.start_time.value_or(0.0))
+            : KeyframeTimes::fromFile(o.image_times);
+    const auto kf = readKeyframeCsv(o.csv);
+    const auto rel = o.relative_csv.empty() ? std::vector<RelativeCovarianceRow>{}
+                                            : readRelativeCsv(o.relative_csv);
+    FileSamples fs = samplesFromTables(kf, rel, gt, times, fo);
+    report_skipped(fs.skipped);
+    if (!fo.align_sim3)
+      sections.push_back({"absolute", "absolute NEES (keyframes of " + o.csv + ")", fs.absolute});
+    if (!o.relative_csv.empty())
+      sections.push_back({"relative",
+                          "relative NEES (" + pair_title + " of " + o.relative_csv + ")",
+                          fs.relative});
+  }
+  if (!o.rawlog.empty()) {
+    FileSamples fs = samplesFromRawlog(readPoseRawlog(o.rawlog, o.rawlog_label), gt, fo);
+    report_skipped(fs.skipped);
+    sections.push_back(
+        {"rawlog_absolute", "absolute NEES (poses of " + o.rawlog + ")", fs.absolute});
+  }
+  bool any = false;
+  for (const auto& s : sections) any |= !s.samples.empty();
+  if (!any) {
+    err << "dba-evaluate: error: no sample could be evaluated (no ground truth matched, or every "
+           "covariance is singular)\n";
+    *any_failed = true;
+  }
+  return sections;
+}
+
+std::vector<NeesSample> fitSet(const std::vector<ReportSection>& sections,
+                               const std::string& prefix, std::string* name) {
+  for (const char* kind : {"relative", "absolute"})
+    for (const auto& s : sections)
+      if (s.key == prefix + kind && !s.samples.empty()) {
+        *name = std::string(kind) + " NEES";
+        return s.samples;
+      }
+  for (const auto& s : sections)
+    if (!s.samples.empty()) {
+      *name = s.key;
+      return s.samples;
+    }
+  return {};
+}
+
+}  // namespace
+
+int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+  EvaluateOptions o;
+  CLI::App cli{
+      "dba-evaluate: consistency of DBA pose covariances against ground truth (NEES, coverage, "
+      "calibration)",
+      "dba-evaluate"};
+  cli.footer(kFooter);
+  cli.add_option("--csv", o.csv, "Keyframe table of dba-covariance --csv");
+  cli.add_option("--relative-csv", o.relative_csv,
+                 "Pair table of dba-covariance --relative-csv (relative NEES)");
+  cli.add_option("--rawlog", o.rawlog, "Pose rawlog of dba-covariance -o (absolute NEES only)");
+  cli.add_option("--rawlog-label", o.rawlog_label,
+                 "Only observations with this sensorLabel (default: all)");
+  cli.add_option("--gt", o.gt, "Ground truth: TUM trajectory or EuRoC ground-truth CSV");
+  cli.add_option("--gt-format", o.gt_format, "auto (EuRoC when comma-separated), tum or euroc")
+      ->check(CLI::IsMember({"auto", "tum", "euroc"}));
+  cli.add_option("--body-to-camera", o.body_to_camera,
+                 "T_body_cam as tx ty tz qx qy qz qw (EuRoC: cam0's T_BS)")
+      ->expected(7);
+  cli.add_option("--image-times", o.image_times,
+                 "Image times: tstamp k is line k (seconds, or EuRoC cam0/data.csv in ns)");
+  cli.add_option("--time-tolerance", o.time_tolerance,
+                 "Seconds within which a ground-truth sample matches (default 1e-3)")
+      ->check(CLI::NonNegativeNumber);
+  cli.add_option(
+         "--max-gap", o.max_gap,
+         "Interpolate ground truth between samples at most this many seconds apart (default 0.1)")
+      ->check(CLI::NonNegativeNumber);
+  cli.add_option("--align", o.align,
+                 "none (estimate in the truth's frame: absolute + relative NEES) or sim3 (per "
+                 "snapshot; relative only)")
+      ->check(CLI::IsMember({"none", "sim3"}));
+  cli.add_option("--pairs", o.pairs,
+                 "Relative NEES over consecutive keyframes (default) or all co-visible pairs")
+      ->check(CLI::IsMember({"consecutive", "all"}));
+  cli.add_option("--monte-carlo", o.monte_carlo,
+                 "Monte Carlo: N noise draws of the simulated scenario")
+      ->check(CLI::Range(1, 1000000));
+  cli.add_option("--first-run", o.first_run,
+                 "Monte Carlo: index of the first noise draw (default 0)")
+      ->check(CLI::NonNegativeNumber);
+  cli.add_option("--calibration-runs", o.calibration_runs,
+                 "Monte Carlo: fit k on the first M runs, evaluate the others")
+      ->check(CLI::NonNegativeNumber);
+  cli.add_flag("--calibrate", o.calibrate,
+               "Fit the variance inflation k on the evaluated samples and report before/after");
+  cli.add_option("--inflation", o.inflation,
+                 "Apply a given variance inflation k (fitted elsewhere)")
+      ->check(CLI::PositiveNumber);
+  cli.add_option("--json", o.json, "Write the statistics as JSON");
+  cli.add_option("--samples-csv", o.samples_csv,
+                 "Write every sample: section,run,group,dof,nees,e_0..e_5,sigma_0..sigma_5");
+  cli.add_flag("-q,--quiet", o.quiet, "No progress display");
+  o.scenario.add(cli);
+  cli.get_option("--weight-scale")
+      ->description(
+          "Weight scale of the covariances: Monte Carlo, the simulation's (default 4); files, the "
+          "one dba-covariance used (default 0.001 = preset droid), for the calibrated value");
+  std::optional<sim::ScenarioConfig> config;
+  try {
+    cli.parse(argc, argv);
+    checkUsage(o);
+    if (o.calibrate && o.inflation)
+      throw std::invalid_argument("give either --calibrate or --inflation");
+    if (o.calibration_runs > 0 && o.inflation)
+      throw std::invalid_argument("give either --calibration-runs or --inflation");
+    if (o.monte_carlo > 0) config = o.scenario.resolve();
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      out << cli.help();
+      return 0;
+    }
+    err << "dba-evaluate: " << e.what() << "\nRun with --help for usage.\n";
+    return 2;
+  } catch (const std::exception& e) {
+    err << "dba-evaluate: " << e.what() << "\nRun with --help for usage.\n";
+    return 2;
+  }
+
+  bool failed = false;
+  std::vector<ReportSection> sections;
+  std::optional<Calibration> cal;
+  try {
+    if (config) {
+      const sim::Scenario sc(*config);
+      const DbaOptions engine = config->engineOptions();
+      const auto pairs =
+          o.pairs == "all" ? sim::PairSelection::CoVisible : sim::PairSelection::Consecutive;
+      const int total = o.monte_carlo * sc.numSnapshots();
+      Progress progress(err, static_cast<std::size_t>(total), !o.quiet);
+      auto step = [&](int, int) { progress.step("Monte Carlo"); };
+      const std::string gauge =
+          config->gauge.type == GaugeOptions::Type::Minimal ? "minimal" : "two-pose";
+      const int M = o.calibration_runs, first = o.first_run;
+      auto describe = [&](int a, int b) {
+        return "runs " + std::to_string(a) + ".." + std::to_string(b - 1);
+      };
+      const sim::MonteCarloResult eval =
+          sim::runMonteCarlo(sc, first + M, o.monte_carlo - M, engine, pairs, step);
+      std::optional<sim::MonteCarloResult> fit;
+      if (M > 0) fit = sim::runMonteCarlo(sc, first, M, engine, pairs, step);
+      progress.clear();
+      const int bad = eval.not_converged + (fit ? fit->not_converged : 0);
+      if (bad) err << "dba-evaluate: warning: " << bad << " DBA solves did not converge\n";
+      const std::string held = M > 0 ? "held-out " : "";
+      const std::string what =
+          " (" + describe(first + M, first + o.monte_carlo) + ", gauge " + gauge + " at the truth)";
+      if (fit)
+        sections.push_back({"calibration_relative",
+                            "calibration set: relative NEES (" + describe(first, first + M) + ")",
+                            fit->samples.relative});
+      sections.push_back({"absolute", held + "absolute NEES" + what, eval.samples.absolute});
+      sections.push_back({"relative",
+                          held + "relative NEES, " +
+                              (pairs == sim::PairSelection::Consecutive ? "consecutive keyframes"
+                                                                        : "co-visible pairs") +
+                              what,
+                          eval.samples.relative});
+      if (o.calibrate || M > 0 || o.inflation) {
+        cal = Calibration{};
+        cal->weight_scale = config->weight_scale;
+        if (o.inflation) {
+          cal->k = *o.inflation;
+          cal->fitted = false;
+        } else {
+          std::string name;
+          const auto set = fitSet(sections, M > 0 ? "calibration_" : "", &name);
+          if (set.empty()) throw NumericalError("no sample to fit the variance inflation on", {});
+          cal->k = fitInflation(set);
+          cal->fit_samples = set.size();
+          cal->fitted_on =
+              name + " of " +
+              (M > 0 ? describe(first, first + M) : describe(first, first + o.monte_carlo));
+        }
+      }
+    } else {
+      sections = fileSections(o, err, &failed);
+      if (!failed && (o.calibrate || o.inflation)) {
+        cal = Calibration{};
+        cal->weight_scale = o.scenario.weight_scale.value_or(1e-3);
+        if (o.inflation) {
+          cal->k = *o.inflation;
+          cal->fitted = false;
+        } else {
+          std::string name;
+          const auto set = fitSet(sections, "", &name);
+          if (set.empty()) throw NumericalError("no sample to fit the variance inflation on", {});
+          cal->k = fitInflation(set);
+          cal->fit_samples = set.size();
+          cal->fitted_on = name;
+        }
+      }
+    }
+    if (!failed) {
+      printReport(out, sections, cal);
+      if (!o.json.empty())
+        io::writeFileAtomically(o.json, [&](std::ostream& os) { os << reportJson(sections, cal); });
+      if (!o.samples_csv.empty())
+        io::writeFileAtomically(o.samples_csv,
+                                [&](std::ostream& os) { os << samplesCsv(sections); });
+    }
+  } catch (const std::exception& e) {
+    err << "dba-evaluate: error: " << e.what() << '\n';
+    return 1;
+  }
+  return failed ? 1 : 0;
+}
+
+}  // namespace dbacov::app

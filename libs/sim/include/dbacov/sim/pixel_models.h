@@ -1,0 +1,73 @@
+// Per-pixel models of the simulator: the network's confidences (weights) and the errors of its
+// predicted targets (noise).
+//
+// Weights: per pixel and axis, w ~ Uniform[min, max], Beta(alpha, beta) rescaled to [min, max], or
+// a constant; a fraction `zero_fraction` of the pixels gets w = 0 on both axes (no information).
+// Noise: a target's error on each axis has variance 1/(weight_scale · w), the information the
+// covariance engine assigns to it (SPEC §2), so the marginal of every pixel is right by
+// construction. Its structure within an edge is either
+//   White       independent across pixels: the engine's model holds exactly (consistent);
+//   Correlated  a stationary Gaussian random field per edge and axis with correlation
+//               ρ(Δ) = exp(−|Δ|² / (2 ℓ²)) between pixels Δ apart (ℓ = correlation_length_px),
+//               scaled pixel-wise by 1/sqrt(weight_scale · w). The engine still treats the pixels
+//               as independent, so its covariances are over-confident, like raw DROID confidences
+//               (SPEC §7).
+// The field is white noise smoothed by a separable Gaussian kernel of standard deviation ℓ/√2 (the
+// autocorrelation of a Gaussian kernel of std s is a Gaussian of std s√2), computed on a padded
+// grid so that every pixel has full kernel support, and divided by the kernel's norm so that its
+// marginal variance is exactly 1.
+#pragma once
+
+#include <random>
+#include <string>
+#include <vector>
+
+namespace dbacov::sim {
+
+struct WeightModel {
+  enum class Distribution { Uniform, Beta, Constant };
+  Distribution distribution = Distribution::Uniform;
+  double min = 0.2, max = 1.0;     ///< range (Uniform, Beta)
+  double alpha = 2.0, beta = 2.0;  ///< shape (Beta)
+  double value = 1.0;              ///< Constant
+  double zero_fraction = 0.1;      ///< fraction of pixels with w = 0 on both axes
+
+  /// Throws std::invalid_argument for values out of their domain (0 <= min <= max, shapes > 0,
+  /// value > 0, zero_fraction in [0, 1)).
+  void validate() const;
+  /// One confidence (> 0 unless min = 0).
+  double sample(std::mt19937_64& rng) const;
+};
+/// "uniform", "beta", "constant"; throws std::invalid_argument otherwise.
+WeightModel::Distribution parseWeightDistribution(const std::string& name);
+std::string toString(WeightModel::Distribution d);
+
+struct NoiseModel {
+  enum class Type { White, Correlated };
+  Type type = Type::White;
+  double correlation_length_px = 3.0;  ///< ℓ (Correlated)
+  /// Multiplies every target error: 1 = the variance the weights claim (consistent), 0 = exact
+  /// targets, 2 = four times the claimed variance.
+  double amplitude = 1.0;
+
+  /// Throws std::invalid_argument for a non-positive correlation length or negative amplitude.
+  void validate() const;
+};
+/// "white", "correlated"; throws std::invalid_argument otherwise.
+NoiseModel::Type parseNoiseType(const std::string& name);
+std::string toString(NoiseModel::Type t);
+
+/// Unit-variance noise fields of one H×W grid (C order) under a noise model.
+class UnitNoiseField {
+ public:
+  UnitNoiseField(const NoiseModel& model, int H, int W);
+  /// A new field: i.i.d. N(0, 1) (White) or the correlated field above.
+  std::vector<double> sample(std::mt19937_64& rng) const;
+
+ private:
+  NoiseModel model_;
+  int H_, W_, radius_ = 0;
+  std::vector<double> kernel_;  ///< normalized so that the field has unit variance
+};
+
+}  // namespace dbacov::sim

@@ -1,0 +1,162 @@
+// A simulated DROID-SLAM run with ground truth: a scene, a trajectory, DROID-like edges, per-pixel
+// confidences and target noise, and the DBA snapshots that DROID's frontend would produce, each
+// solved to the optimum of its own noisy measurements (dba_solver.h).
+//
+// Modes:
+//   SlidingWindow    one snapshot per new keyframe once W exist (DROID's frontend): snapshot s
+//                    holds keyframes 0..s+W−1 in `poses` and edges among the last W (s..s+W−1);
+//                    keyframes before s keep their true poses and take part in no edge.
+//   WholeTrajectory  one snapshot with every keyframe and edges among all of them.
+// Edges: temporal neighbours (|i − j| <= radius) plus pairs whose true views overlap
+// (covisibility.h), both directions. A pixel of frame i carries no information on an edge (i, j)
+// (weight 0 on both axes) when its point is behind camera j, projects outside image j, or is
+// hidden there by a nearer surface (the network cannot match it); the rest get confidences from
+// the weight model and targets = true projection + noise of variance 1/(weight_scale·w)
+// (pixel_models.h).
+//
+// State of a snapshot: the truth perturbed (poses by Exp(ξ), ξ ~ N(0, diag(σ_t², σ_r²)); inverse
+// depths by a factor exp(σ_d n)), then solved with the DBA solver under `gauge` and DROID's pixel
+// filter (DbaOptions::droid() with the scenario's weight scale: engineOptions()). The gauge is
+// held *at the truth*: the two-pose gauge keyframes start (and, when hard, stay) at their true
+// poses; under the minimal gauge the first keyframe is true and the second starts at its true
+// distance from it. (A soft two-pose prior is centred at the truth and lets them move.)
+// The estimate is then expressed in the true frame and scale, which is what makes absolute NEES
+// meaningful (SPEC §7); DROID itself holds its oldest poses at their estimates instead.
+//
+// Randomness: every stream is seeded from (seed, purpose, snapshot[, run]) so that a snapshot
+// depends only on the configuration, its index and the run: confidences are fixed by the
+// scenario, while target noise and the initial perturbation are redrawn for every Monte Carlo run
+// (`run`) and every snapshot (DROID re-predicts its targets at every update).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "dbacov/core/dba_factor.h"
+#include "dbacov/core/dba_solver.h"
+#include "dbacov/core/options.h"
+#include "dbacov/core/snapshot.h"
+#include "dbacov/sim/covisibility.h"
+#include "dbacov/sim/pixel_models.h"
+#include "dbacov/sim/scene.h"
+#include "dbacov/sim/trajectory.h"
+
+namespace dbacov::sim {
+
+struct CameraConfig {
+  int H = 48, W = 64;
+  /// Unset: fx = fy = 0.87·W (≈ 60° horizontal field of view), cx = (W−1)/2, cy = (H−1)/2.
+  std::optional<double> fx, fy, cx, cy;
+  PinholeIntrinsics intrinsics() const;
+};
+
+enum class SimulationMode { SlidingWindow, WholeTrajectory };
+/// "sliding-window", "whole"; throws std::invalid_argument otherwise.
+SimulationMode parseSimulationMode(const std::string& name);
+std::string toString(SimulationMode m);
+
+struct InitialPerturbation {
+  double translation = 0.02;    ///< σ_t, metres (per axis of ρ)
+  double rotation = 0.01;       ///< σ_r, radians (per axis of φ)
+  double inverse_depth = 0.05;  ///< σ_d of the log inverse depth
+};
+
+struct TimeConfig {
+  double frame_interval = 3.0;  ///< `tstamp` of keyframe k is k·frame_interval (image index)
+  double fps = 20.0;            ///< keyframe time = start_time + tstamp / fps (seconds)
+  double start_time = 1.7e9;    ///< seconds since 1970 (MRPT treats 0 as "no time")
+};
+
+/// The default sequence: 12 keyframes (5 snapshots of a window of 8).
+inline TrajectoryConfig defaultScenarioTrajectory() {
+  TrajectoryConfig t;
+  t.num_keyframes = 12;
+  return t;
+}
+
+/// The default edges: temporal neighbours within 2 keyframes plus, per keyframe, the two
+/// best-overlapping farther keyframes whose views overlap >= 50 % (DROID's proximity edges).
+inline CovisibilityConfig defaultScenarioEdges() {
+  CovisibilityConfig e;
+  e.edge_radius = 2;
+  e.overlap_threshold = 0.5;
+  e.max_overlap_edges = 2;
+  e.candidate_distance = 1.0;
+  return e;
+}
+
+/// The solver of the simulation: up to 200 iterations (DROID-like signal-to-noise makes the DBA
+/// cost badly curved; Levenberg-Marquardt then needs more than its default 50 to converge).
+inline DbaSolverOptions defaultScenarioSolver() {
+  DbaSolverOptions o;
+  o.max_iterations = 200;
+  return o;
+}
+
+struct ScenarioConfig {
+  CameraConfig camera;
+  RoomScene scene;
+  TrajectoryConfig trajectory = defaultScenarioTrajectory();  ///< num_keyframes: whole sequence
+  CovisibilityConfig edges = defaultScenarioEdges();
+  WeightModel weights;
+  NoiseModel noise;
+  double weight_scale = 4.0;  ///< information of a target = weight_scale · w (px⁻²)
+  SimulationMode mode = SimulationMode::SlidingWindow;
+  int window = 8;      ///< W, SlidingWindow only
+  GaugeOptions gauge;  ///< default: two-pose, hard (DROID's)
+  InitialPerturbation perturbation;
+  bool solve = true;  ///< false: the stored state is the truth (no solve)
+  DbaSolverOptions solver = defaultScenarioSolver();
+  TimeConfig time;
+  std::uint64_t seed = 1;
+
+  /// Throws std::invalid_argument naming the offending setting.
+  void validate() const;
+  int numSnapshots() const;
+  /// The engine options of the solve (and of a consistent covariance computation): DROID's
+  /// preset with this weight scale and gauge.
+  DbaOptions engineOptions() const;
+};
+
+struct SimulatedSnapshot {
+  Snapshot snapshot;                         ///< valid; state = solved optimum (or truth)
+  std::vector<Eigen::Isometry3d> T_wc_true;  ///< per keyframe of `poses`
+  DbaSolverSummary solver;                   ///< iterations = 0 when not solved
+};
+
+class Scenario {
+ public:
+  /// Validates the configuration, builds the true trajectory, depth maps and edges. Throws
+  /// std::invalid_argument when the configuration is invalid or a camera is not in free space.
+  explicit Scenario(ScenarioConfig config);
+
+  const ScenarioConfig& config() const { return config_; }
+  int numSnapshots() const { return static_cast<int>(edges_.size()); }
+  int numKeyframes() const { return static_cast<int>(T_wc_true_.size()); }
+  /// True camera-to-world pose of every keyframe of the sequence.
+  const std::vector<Eigen::Isometry3d>& groundTruth() const { return T_wc_true_; }
+  /// Seconds of keyframe k (TimeConfig).
+  double keyframeTime(int k) const;
+  /// Directed edges (i, j) of snapshot s, sorted.
+  const std::vector<std::pair<int, int>>& edges(int s) const { return edges_.at(s); }
+
+  /// Snapshot s (0-based) of noise draw `run`; `id` = s. Deterministic. Throws NumericalError
+  /// when the solve fails (an unobservable variable).
+  SimulatedSnapshot simulate(int s, std::uint64_t run = 0) const;
+
+ private:
+  ScenarioConfig config_;
+  PinholeIntrinsics K_;
+  std::vector<Eigen::Isometry3d> T_wc_true_;
+  std::vector<std::vector<double>> disp_true_;  ///< per keyframe, H·W
+  std::vector<std::vector<std::pair<int, int>>> edges_;
+};
+
+/// A well-mixed 64-bit seed for (seed, purpose, a, b) (SplitMix64 finalizer over the inputs).
+std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t purpose, std::uint64_t a,
+                      std::uint64_t b = 0);
+
+}  // namespace dbacov::sim

@@ -1,0 +1,225 @@
+#include "dbacov/sim/scenario.h"
+
+#include <cmath>
+#include <random>
+#include <set>
+#include <stdexcept>
+
+namespace dbacov::sim {
+namespace {
+
+std::uint64_t splitmix(std::uint64_t z) {
+  z += 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("scenario: " + what);
+}
+
+bool finiteNonNegative(double v) {
+  return std::isfinite(v) && v >= 0;
+}
+bool finitePositive(double v) {
+  return std::isfinite(v) && v > 0;
+}
+
+enum Purpose : std::uint64_t { kWeights = 1, kNoise = 2, kInitialState = 3 };
+
+}  // namespace
+
+std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t purpose, std::uint64_t a, std::uint64_t b) {
+  return splitmix(splitmix(splitmix(splitmix(seed) ^ purpose) ^ a) ^ b);
+}
+
+PinholeIntrinsics CameraConfig::intrinsics() const {
+  return {fx.value_or(0.87 * W), fy.value_or(fx.value_or(0.87 * W)), cx.value_or(0.5 * (W - 1)),
+          cy.value_or(0.5 * (H - 1))};
+}
+
+SimulationMode parseSimulationMode(const std::string& name) {
+  if (name == "sliding-window") return SimulationMode::SlidingWindow;
+  if (name == "whole") return SimulationMode::WholeTrajectory;
+  throw std::invalid_argument("unknown simulation mode '" + name +
+                              "', expected sliding-window or whole");
+}
+
+std::string toString(SimulationMode m) {
+  return m == SimulationMode::SlidingWindow ? "sliding-window" : "whole";
+}
+
+void ScenarioConfig::validate() const {
+  require(camera.H >= 2 && camera.H <= 4096 && camera.W >= 2 && camera.W <= 4096,
+          "the grid must be 2..4096 pixels high and wide");
+  const PinholeIntrinsics K = camera.intrinsics();
+  require(
+      finitePositive(K.fx) && finitePositive(K.fy) && std::isfinite(K.cx) && std::isfinite(K.cy),
+      "intrinsics must be finite with fx, fy > 0");
+  scene.validate();
+  require(trajectory.num_keyframes >= 2, "the trajectory needs at least 2 keyframes");
+  require(finitePositive(trajectory.step), "trajectory step must be > 0");
+  require(finiteNonNegative(trajectory.yaw_amplitude), "trajectory yaw amplitude must be >= 0");
+  require(finitePositive(trajectory.loop_radius) && trajectory.keyframes_per_lap >= 3,
+          "loop radius must be > 0 and keyframes per lap >= 3");
+  require(edges.edge_radius >= 1, "edge radius must be >= 1");
+  require(edges.overlap_threshold >= 0 && edges.overlap_threshold <= 1,
+          "overlap threshold must be in [0, 1] (0 = no overlap edges)");
+  require(edges.max_overlap_edges >= 0 && finitePositive(edges.candidate_distance),
+          "max overlap edges must be >= 0 and candidate distance > 0");
+  weights.validate();
+  noise.validate();
+  require(finitePositive(weight_scale), "weight scale must be > 0");
+  if (mode == SimulationMode::SlidingWindow)
+    require(window >= 2 && window <= trajectory.num_keyframes,
+            "the window must hold 2..(number of keyframes) keyframes");
+  require(finiteNonNegative(gauge.sigma_rot) && finiteNonNegative(gauge.sigma_trans),
+          "gauge sigmas must be >= 0");
+  require(finiteNonNegative(perturbation.translation) && finiteNonNegative(perturbation.rotation) &&
+              finiteNonNegative(perturbation.inverse_depth),
+          "initial perturbation sigmas must be >= 0");
+  solver.validate();
+  require(finitePositive(time.fps) && finitePositive(time.frame_interval) &&
+              std::isfinite(time.start_time),
+          "fps and frame interval must be > 0, start time finite");
+}
+
+int ScenarioConfig::numSnapshots() const {
+  return mode == SimulationMode::WholeTrajectory ? 1 : trajectory.num_keyframes - window + 1;
+}
+
+DbaOptions ScenarioConfig::engineOptions() const {
+  DbaOptions o = DbaOptions::droid();
+  o.weight_scale = weight_scale;
+  o.gauge = gauge;
+  return o;
+}
+
+Scenario::Scenario(ScenarioConfig config) : config_(std::move(config)) {
+  config_.validate();
+  K_ = config_.camera.intrinsics();
+  const int K = config_.trajectory.num_keyframes, H = config_.camera.H, W = config_.camera.W;
+  for (int k = 0; k < K; ++k) {
+    const Eigen::Isometry3d T = trajectoryPose(config_.trajectory, k);
+    if (!config_.scene.isFree(T.translation()))
+      throw std::invalid_argument("scenario: the camera of keyframe " + std::to_string(k) +
+                                  " is outside the room or inside a box");
+    T_wc_true_.push_back(T);
+    std::vector<double> d(static_cast<std::size_t>(H) * W);
+    for (int p = 0; p < H * W; ++p)
+      d[p] = config_.scene.inverseDepth(T, (p % W - K_.cx) / K_.fx, (p / W - K_.cy) / K_.fy);
+    disp_true_.push_back(std::move(d));
+  }
+  for (int s = 0; s < config_.numSnapshots(); ++s) {
+    const bool whole = config_.mode == SimulationMode::WholeTrajectory;
+    const int last = whole ? K : s + config_.window;
+    const std::vector<Eigen::Isometry3d> poses(T_wc_true_.begin(), T_wc_true_.begin() + last);
+    edges_.push_back(selectEdges(poses, whole ? 0 : s, config_.scene, K_, H, W, config_.edges));
+  }
+}
+
+double Scenario::keyframeTime(int k) const {
+  return config_.time.start_time + config_.time.frame_interval * k / config_.time.fps;
+}
+
+SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
+  if (s < 0 || s >= numSnapshots())
+    throw std::invalid_argument("scenario: snapshot " + std::to_string(s) + " out of range");
+  const ScenarioConfig& c = config_;
+  const int H = c.camera.H, W = c.camera.W, HW = H * W;
+  const int N = c.mode == SimulationMode::WholeTrajectory ? numKeyframes() : s + c.window;
+  SimulatedSnapshot out;
+  Snapshot& snap = out.snapshot;
+  snap.source = "simulated(seed=" + std::to_string(c.seed) + ", run=" + std::to_string(run) +
+                ", snapshot=" + std::to_string(s) + ")";
+  snap.id = s;
+  snap.index = s;
+  snap.H = H;
+  snap.W = W;
+  snap.intrinsics << K_.fx, K_.fy, K_.cx, K_.cy;
+  snap.poses_cw.resize(N, 7);
+  snap.tstamp.resize(N);
+  snap.timestamps_s = std::vector<double>(N);
+  snap.disps.resize(static_cast<std::size_t>(N) * HW);
+  for (int k = 0; k < N; ++k) {
+    out.T_wc_true.push_back(T_wc_true_[k]);
+    snap.setT_wc(k, T_wc_true_[k]);
+    snap.tstamp[k] = c.time.frame_interval * k;
+    (*snap.timestamps_s)[k] = keyframeTime(k);
+    for (int p = 0; p < HW; ++p)
+      snap.disps[static_cast<std::size_t>(k) * HW + p] = static_cast<float>(disp_true_[k][p]);
+  }
+  for (const auto& [i, j] : edges_[s]) {
+    snap.ii.push_back(i);
+    snap.jj.push_back(j);
+  }
+
+  // Confidences (fixed by the scenario) and targets (redrawn per run).
+  std::mt19937_64 rng_w(mixSeed(c.seed, kWeights, s)), rng_n(mixSeed(c.seed, kNoise, s, run));
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const UnitNoiseField field(c.noise, H, W);
+  const int E = snap.numEdges();
+  snap.target.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
+  snap.weight.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
+  for (int e = 0; e < E; ++e) {
+    const int i = static_cast<int>(snap.ii[e]), j = static_cast<int>(snap.jj[e]);
+    const Eigen::Isometry3d T_ji = T_wc_true_[j].inverse() * T_wc_true_[i];
+    const std::vector<double> n[2] = {field.sample(rng_n), field.sample(rng_n)};
+    for (int p = 0; p < HW; ++p) {
+      const double d = disp_true_[i][p];
+      const Eigen::Vector3d Y =
+          transferPoint(T_ji.linear(), T_ji.translation(), K_, p % W, p / W, d);
+      bool visible = d > 0 && Y.z() > 0;
+      double proj[2] = {0.0, 0.0};
+      if (visible) {
+        const double xn = Y.x() / Y.z(), yn = Y.y() / Y.z();
+        proj[0] = K_.fx * xn + K_.cx;
+        proj[1] = K_.fy * yn + K_.cy;
+        visible = proj[0] >= -0.5 && proj[0] <= W - 0.5 && proj[1] >= -0.5 && proj[1] <= H - 0.5;
+        // Hidden when the surface that camera j sees along this ray is nearer than the point
+        // (point inverse depth in j: d / Y.z).
+        if (visible)
+          visible = d / Y.z() >= c.scene.inverseDepth(T_wc_true_[j], xn, yn) * (1.0 - 1e-3);
+      }
+      const bool zero = u01(rng_w) < c.weights.zero_fraction || !visible;
+      for (int a = 0; a < 2; ++a) {
+        const float w = zero ? 0.0f : static_cast<float>(c.weights.sample(rng_w));
+        const double sigma = w > 0 ? c.noise.amplitude / std::sqrt(c.weight_scale * w) : 0.0;
+        snap.weight[(static_cast<std::size_t>(e) * 2 + a) * HW + p] = w;
+        snap.target[(static_cast<std::size_t>(e) * 2 + a) * HW + p] =
+            static_cast<float>(proj[a] + sigma * n[a][p]);
+      }
+    }
+  }
+  snap.validate();
+  if (!c.solve) return out;
+
+  // Initial state: the truth perturbed, gauge held at the truth; then the solve.
+  std::mt19937_64 rng_p(mixSeed(c.seed, kInitialState, s, run));
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const std::set<std::int64_t> sources(snap.ii.begin(), snap.ii.end());
+  const int ga = static_cast<int>(*sources.begin()),
+            gb = static_cast<int>(*std::next(sources.begin()));
+  const bool minimal = c.gauge.type == GaugeOptions::Type::Minimal;
+  for (int k : snap.graphKeyframes()) {
+    Vector6d xi;
+    for (int q = 0; q < 6; ++q)
+      xi[q] = n01(rng_p) * (q < 3 ? c.perturbation.translation : c.perturbation.rotation);
+    float* d = &snap.disps[static_cast<std::size_t>(k) * HW];
+    for (int p = 0; p < HW; ++p)
+      d[p] = static_cast<float>(d[p] * std::exp(c.perturbation.inverse_depth * n01(rng_p)));
+    if (k == ga || (k == gb && !minimal)) continue;
+    Eigen::Isometry3d T = T_wc_true_[k] * expSE3(xi);
+    if (k == gb) {  // minimal gauge: the scale keyframe starts at its true distance
+      const Eigen::Vector3d c_a = T_wc_true_[ga].translation();
+      const double D = (T_wc_true_[gb].translation() - c_a).norm();
+      T.translation() = c_a + D * (T.translation() - c_a).normalized();
+    }
+    snap.setT_wc(k, T);
+  }
+  out.solver = solveDba(snap, c.engineOptions(), c.solver);
+  return out;
+}
+
+}  // namespace dbacov::sim
