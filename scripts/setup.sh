@@ -12,7 +12,10 @@ PACKAGES=(
   libopencv-dev
   libcli11-dev nlohmann-json3-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libceres-dev
-  gnuplot-nox
+  # Pictures (dba-covariance --plots, --snapshot): gnuplot's pngcairo terminal draws with the
+  # DejaVu Sans font that the figures name (fontconfig would otherwise fall back to whatever font is
+  # there, or none on a minimal system); MRPT's offscreen CFBORender needs Mesa's EGL (no X server).
+  gnuplot-nox fonts-dejavu-core
   libegl1 libegl-mesa0 libgl1-mesa-dri
   python3-numpy
 )

@@ -6,10 +6,13 @@
 #include <CLI/CLI.hpp>
 
 #include "dbacov/app/outputs.h"
+#include "dbacov/app/pipeline.h"
 #include "dbacov/app/progress.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/parallel.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "visual_cli.h"
 
 namespace dbacov::app {
 namespace {
@@ -42,7 +45,8 @@ Conventions (README.md has the details):
   not fix their relative pose. .graphbin keeps everything; .graph is laid out for MRPT 2.5.8's
   text loader (which drops rotation-rotation off-diagonal information); .g2o uses g2o's order
   and its quaternion-vector error (rotation information x4). dba-posegraph optimizes it.
-  All outputs are written atomically (temporary file, then rename).
+  All outputs are written atomically (temporary file, then rename).)";
+constexpr const char* kExitStatus = R"(
 Exit status: 0 success, 1 when any snapshot or output failed (the others are still written),
 2 on bad usage.)";
 
@@ -95,7 +99,8 @@ SolverOptions CovarianceAppOptions::solverOptions() const {
 int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
   CovarianceAppOptions opt;
   CLI::App cli{"dba-covariance: marginal pose covariances from DROID-SLAM DBA snapshots", "dba-covariance"};
-  cli.footer(kConventions);
+  detail::VisualCli visual;  // pictures: --scene, --snapshot, --plots (visual_cli.h)
+  cli.footer(std::string(kConventions) + detail::kVisualHelp + kExitStatus);
   cli.add_option("-i,--input", opt.inputs, "Snapshot .npz file or directory of them (name order); repeatable")
       ->required();
   cli.add_option("--csv", opt.csv_path, "Write one row per (snapshot, graph keyframe): pose, criteria, covariance");
@@ -122,7 +127,10 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   cli.add_option("--near", opt.near, "Keep a pixel only if d < 1/near and its depth in frame j > near");
   cli.add_option("--far", opt.far, "Keep a pixel only if d > 1/far");
   cli.add_option("--min-depth-ratio", opt.min_depth_ratio, "Drop a pixel when z_j*d is below this (droid 0.25; 0 = off)");
+  cli.add_option("--threads", opt.threads, "Threads for independent snapshots and for each snapshot's linearization (0 = all cores)")
+      ->check(CLI::Range(0, 4096));
   cli.add_flag("-q,--quiet", opt.quiet, "No progress display and no summary line");
+  detail::addVisualOptions(cli, visual);
 
   try {
     cli.parse(argc, argv);
@@ -137,16 +145,18 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   DbaOptions engine;
   try {
     engine = opt.engineOptions();
+    detail::finishVisualOptions(visual);
     if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
-        opt.rawlog_path.empty() && opt.graph_prefix.empty())
-      throw std::invalid_argument(
-          "no output requested: give -o, --csv, --relative-csv, --depth-sigma or --graph");
+        opt.rawlog_path.empty() && opt.graph_prefix.empty() && !visual.any())
+      throw std::invalid_argument("no output requested: give -o, --csv, --relative-csv, "
+                                  "--depth-sigma, --graph, --scene, --snapshot or --plots");
   } catch (const std::invalid_argument& e) {
     err << "dba-covariance: " << e.what() << "\nRun with --help for usage.\n";
     return 2;
   }
 
   Summary sum;
+  const ThreadLimit thread_limit(opt.threads);
   try {
     const SnapshotInputs inputs(opt.inputs);
     std::vector<std::unique_ptr<OutputSink>> sinks;
@@ -163,6 +173,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
     }
     if (!opt.rawlog_path.empty())
       sinks.push_back(std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.label, parseEmitMode(opt.emit)));
+    detail::appendVisualSinks(sinks, visual);  // last: their commit renders (slowest)
     SolverOptions solver = opt.solverOptions();
     for (const auto& sink : sinks) solver.depth_variances |= sink->needsDepthVariances();
 
@@ -172,23 +183,35 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       err << "dba-covariance: error: " << what << '\n';
       ++sum.failed;
     };
-    inputs.forEach(
-        [&](Snapshot& s) {
-          ++sum.read;
-          progress.step(s.source);
+    // Snapshots are independent: compute them in parallel, hand the results to the sinks in order.
+    SnapshotStream stream(inputs);
+    auto name = [](const Snapshot& s) {
+      return s.source + " (snapshot " + std::to_string(s.label()) + ")";
+    };
+    runSnapshotPipeline(
+        stream, 2 * std::max<std::size_t>(1, currentThreadLimit()),
+        [&](PipelineItem& item) {
+          Snapshot& s = item.input.snapshot;
           try {
             if (opt.fps) deriveKeyframeTimes(s, *opt.fps);
             for (const auto& sink : sinks) sink->check(s);
-            const DbaCovariance cov(s, engine, solver);
-            for (const auto& sink : sinks) sink->add(s, cov);
-            ++sum.processed;
+            item.cov = std::make_unique<DbaCovariance>(s, engine, solver);
           } catch (const std::exception& e) {
-            report(s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what());
+            item.error = name(s) + ": " + e.what();
           }
         },
-        [&](const std::string& what) {
+        [&](PipelineItem& item) {
           ++sum.read;
-          report(what);
+          if (!item.input.ok()) return report(item.input.error);
+          const Snapshot& s = item.input.snapshot;
+          progress.step(s.source);
+          if (!item.cov) return report(item.error);
+          try {
+            for (const auto& sink : sinks) sink->add(s, *item.cov);
+            ++sum.processed;
+          } catch (const std::exception& e) {
+            report(name(s) + ": " + e.what());
+          }
         });
     progress.clear();
     for (const auto& sink : sinks) sink->commit();
