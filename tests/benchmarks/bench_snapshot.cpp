@@ -1,7 +1,8 @@
 // Time per snapshot (issue 2): the real DROID snapshot ../shared/data/droid_window_0055.npz
 // (11 keyframes, 58 edges, 49×61) through the whole engine, one core.
 //   Load          .npz → validated Snapshot (libzip inflate + NPY parse + checks)
-//   Linearize     pixel factors + depth Schur complement
+//   Linearize     pixel factors + depth Schur complement, args (problem, threads): problem 0 =
+//                 the shared snapshot, 1 = a simulated DROID-sized window; vs the FLOP floor
 //   Covariances   linearize + gauge + factorize + every keyframe marginal (what --csv needs)
 //
 //   build/bin/bench_snapshot --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -10,7 +11,10 @@
 #include <benchmark/benchmark.h>
 
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/parallel.h"
 #include "dbacov/io/snapshot_npz.h"
+#include "dbacov/sim/synthetic_snapshot.h"
+#include "flop_count.h"
 
 namespace dbacov::bench {
 namespace {
@@ -33,15 +37,40 @@ void BM_Load(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(io::loadSnapshotNpz(kShared, 0));
 }
 
+/// 0: the shared DROID snapshot; 1: a simulated DROID-sized window (25 keyframes, 48×64).
+const Snapshot& snapshot(int which) {
+  static const Snapshot window = [] {
+    sim::SyntheticSnapshotConfig c;
+    c.num_keyframes = 25;
+    c.H = 48;
+    c.W = 64;
+    c.fx = c.fy = 0.87 * c.W;
+    c.cx = 0.5 * (c.W - 1);
+    c.cy = 0.5 * (c.H - 1);
+    c.trajectory.num_keyframes = 25;
+    c.covisibility.edge_radius = 3;
+    return sim::generateSyntheticSnapshot(c).snapshot;
+  }();
+  return which == 0 ? shared() : window;
+}
+
+/// Linearization + depth Schur complement on `threads` threads, against the FLOP floor.
 void BM_Linearize(benchmark::State& state) {
-  if (skipWithoutData(state)) return;
-  const DbaOptions o = DbaOptions::droid();
-  for (auto _ : state) benchmark::DoNotOptimize(linearizeDba(shared(), o));
-  state.counters["factors"] = static_cast<double>(linearizeDba(shared(), o).stats.factors_used);
+  if (state.range(0) == 0 && skipWithoutData(state)) return;
+  const ThreadLimit limit(static_cast<std::size_t>(state.range(1)));
+  const Snapshot& s = snapshot(static_cast<int>(state.range(0)));
+  DbaOptions o = DbaOptions::droid();
+  for (auto _ : state) benchmark::DoNotOptimize(linearizeDba(s, o));
+  const double flops = linearizationFlops(s);
+  state.counters["factors"] = static_cast<double>(linearizeDba(s, o).stats.factors_used);
+  state.counters["MFLOP"] = flops / 1e6;
+  state.counters["floor_ms"] = 1e3 * flops / kPeakFlopsPerSecond;
+  state.counters["GFLOP/s"] = benchmark::Counter(flops / 1e9, benchmark::Counter::kIsIterationInvariantRate);
 }
 
 void BM_Covariances(benchmark::State& state) {
   if (skipWithoutData(state)) return;
+  const ThreadLimit one(1);
   SolverOptions so;
   so.kind = state.range(0) ? SolverKind::Sparse : SolverKind::Dense;
   const DbaOptions o = DbaOptions::droid();
@@ -55,7 +84,7 @@ void BM_Covariances(benchmark::State& state) {
 }
 
 BENCHMARK(BM_Load)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Linearize)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Linearize)->Args({0, 1})->Args({0, 2})->Args({1, 1})->Args({1, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Covariances)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
 
 }  // namespace

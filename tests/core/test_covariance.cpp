@@ -188,3 +188,27 @@ TEST(Covariance, AllZeroWeightsOfAKeyframeIsNumericalError) {
 
 }  // namespace
 }  // namespace dbacov
+
+namespace dbacov {
+namespace {
+
+TEST(Covariance, TwoKeyframesUnderAHardGaugeHaveZeroCovariance) {
+  auto c = smallConfig(12);
+  c.num_keyframes = 2;
+  const auto syn = sim::generateSyntheticSnapshot(c);
+  for (SolverKind kind : {SolverKind::Sparse, SolverKind::Dense}) {
+    SolverOptions so;
+    so.kind = kind;
+    so.depth_variances = true;
+    const DbaCovariance cov(syn.snapshot, withGauge(GaugeOptions::Type::TwoPose, 0, 0), so);
+    EXPECT_EQ(cov.marginal(0), Matrix6d::Zero());
+    EXPECT_EQ(cov.relative(0, 1), Matrix6d::Zero());
+    // Depths still have a variance: 1/h (the poses are fixed).
+    std::size_t finite = 0;
+    for (float v : cov.inverseDepthSigma(0)) finite += std::isfinite(v);
+    EXPECT_GT(finite, 0u);
+  }
+}
+
+}  // namespace
+}  // namespace dbacov

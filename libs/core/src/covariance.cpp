@@ -63,7 +63,9 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
       break;
   }
   try {
-    m.solver->factorize(reduceSystem(m.ne.S, m.gauge));
+    // A gauge that fixes every keyframe (two keyframes, hard two-pose gauge) leaves nothing free:
+    // every covariance is zero and there is nothing to factorize.
+    if (m.gauge.dim() > 0) m.solver->factorize(reduceSystem(m.ne.S, m.gauge));
   } catch (const FactorizationError& e) {
     std::vector<int> kf;
     if (e.column() >= 0) {
@@ -149,9 +151,10 @@ std::vector<float> DbaCovariance::inverseDepthSigma(int k) const {
     beta.middleRows(row, da) = m.gauge.basis[a].transpose() * dt.B.middleRows(6 * t, 6);
     row += da;
   }
-  // The touched slots form a clique of S, so this block lies on the factor's pattern.
-  const Eigen::MatrixXd Sigma = m.solver->covariance(idx, idx);
-  const Eigen::MatrixXd Q = Sigma * beta;
+  // The touched slots form a clique of S, so this block lies on the factor's pattern. (None of
+  // them may be free: then the poses are fixed and var(d) = 1/h.)
+  const Eigen::MatrixXd Q =
+      idx.empty() ? Eigen::MatrixXd::Zero(0, P) : Eigen::MatrixXd(m.solver->covariance(idx, idx) * beta);
   for (int c = 0; c < P; ++c) {
     const double h = dt.h[c];
     const double var = 1.0 / h + beta.col(c).dot(Q.col(c)) / (h * h);
