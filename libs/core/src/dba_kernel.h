@@ -40,7 +40,7 @@ struct Edge {
 /// Everything one source keyframe accumulates; sized by reset().
 struct Accumulator {
   int T = 0, E = 0;               ///< touched slots, edges
-  std::vector<double> aug;        ///< E × 13 × 13 per edge, Σ aᵀa of a = √w·[J_i J_j r] (upper)
+  std::vector<double> aug;        ///< E × 13 × 13 per edge, Σ aᵀa of a = √w·[J_i J_j r] (lower)
   std::vector<double> W;          ///< 6T × 6T, Σ_k b_k b_kᵀ / h_k (lower triangle, row-major)
   std::vector<double> gS;         ///< 6T, Σ_k b_k g_k / h_k
   std::size_t factors_used = 0, factors_filtered = 0, depths_used = 0, depths_unobservable = 0;

@@ -67,14 +67,14 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
   res.stats.depths_used = acc.depths_used;
   res.stats.depths_unobservable = acc.depths_unobservable;
 
-  // Local system of the touched slots from the per-edge blocks (upper triangles of aug).
+  // Local system of the touched slots from the per-edge blocks (lower triangles of aug).
   res.Hloc = Eigen::MatrixXd::Zero(6 * T, 6 * T);
   res.g_loc = Eigen::VectorXd::Zero(6 * T);
   for (int q = 0; q < E; ++q) {
     const int t = edges[q].target;
     Eigen::Matrix<double, 13, 13> A =
         Eigen::Map<const Eigen::Matrix<double, 13, 13, Eigen::RowMajor>>(&acc.aug[169 * q]);
-    A.triangularView<Eigen::StrictlyLower>() = A.transpose();
+    A.triangularView<Eigen::StrictlyUpper>() = A.transpose();  // the kernel fills the lower
     res.Hloc.block<6, 6>(0, 0) += A.block<6, 6>(0, 0);
     res.Hloc.block<6, 6>(6 * t, 6 * t) += A.block<6, 6>(6, 6);
     res.Hloc.block<6, 6>(0, 6 * t) += A.block<6, 6>(0, 6);
