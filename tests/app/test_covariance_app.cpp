@@ -122,6 +122,26 @@ TEST(CovarianceApp, RelativeCsvAndDepthSigmaMatchTheDenseReference) {
             static_cast<long>(ref.sourceKeyframes().size()));
 }
 
+TEST(CovarianceApp, ThreadCountDoesNotChangeTheOutput) {
+  testing::TempDir dir;
+  for (int i = 0; i < 6; ++i) writeSynthetic(dir.file("s" + std::to_string(i) + ".npz"), i + 1, i);
+  std::ofstream(dir.file("s3.npz")) << "corrupt";  // a failure in the middle keeps its place
+  for (const char* threads : {"1", "2"}) {
+    const AppResult r = run({"-i", dir.path(), "--csv", dir.file(std::string("t") + threads + ".csv"),
+                             "--relative-csv", dir.file(std::string("r") + threads + ".csv"),
+                             "--weight-scale", "4", "--threads", threads, "-q"});
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_TRUE(contains(r.err, "s3.npz")) << r.err;
+  }
+  EXPECT_EQ(readFile(dir.file("t1.csv")), readFile(dir.file("t2.csv")));
+  EXPECT_EQ(readFile(dir.file("r1.csv")), readFile(dir.file("r2.csv")));
+  // Snapshots appear in input order: ids 0, 1, 2, 4, 5.
+  std::vector<std::string> ids;
+  for (const auto& line : splitLines(readFile(dir.file("t2.csv"))))
+    if (ids.empty() || splitCsv(line)[0] != ids.back()) ids.push_back(splitCsv(line)[0]);
+  EXPECT_EQ(ids, (std::vector<std::string>{"snapshot", "0", "1", "2", "4", "5"}));
+}
+
 TEST(CovarianceApp, SharedDroidSnapshot) {
   const std::string shared = std::string(DBACOV_SHARED_DATA_DIR) + "/droid_window_0055.npz";
   if (!std::filesystem::exists(shared)) GTEST_SKIP() << "missing " << shared;
