@@ -9,17 +9,24 @@
 
 namespace dbacov::testing {
 
+/// `keyframes` on the line trajectory over an H×W grid with f = W − 1 (≈ 53° horizontal field of
+/// view) and the principal point at the centre: the small snapshots of the tests.
+inline sim::SyntheticSnapshotConfig gridConfig(std::uint64_t seed, int keyframes, int H, int W) {
+  sim::SyntheticSnapshotConfig c;
+  c.num_keyframes = keyframes;
+  c.H = H;
+  c.W = W;
+  c.fx = c.fy = W - 1;
+  c.cx = 0.5 * (W - 1);
+  c.cy = 0.5 * (H - 1);
+  c.seed = seed;
+  return c;
+}
+
 /// 6 keyframes on the line trajectory, 8×10 grid, radius-2 edges, keyframe times at 20 Hz from
 /// t = 1000 s.
 inline sim::SyntheticSnapshot tinySnapshot(std::uint64_t seed, std::int64_t id, int keyframes = 6) {
-  sim::SyntheticSnapshotConfig c;
-  c.num_keyframes = keyframes;
-  c.H = 8;
-  c.W = 10;
-  c.fx = c.fy = 9;
-  c.cx = 4.5;
-  c.cy = 3.5;
-  c.seed = seed;
+  sim::SyntheticSnapshotConfig c = gridConfig(seed, keyframes, 8, 10);
   c.id = id;
   auto syn = sim::generateSyntheticSnapshot(c);
   deriveKeyframeTimes(syn.snapshot, 20.0);

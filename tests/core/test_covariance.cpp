@@ -5,21 +5,12 @@
 #include "dbacov/core/covariance.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "dense_reference.h"
+#include "fixtures.h"
 
 namespace dbacov {
 namespace {
 
-sim::SyntheticSnapshotConfig smallConfig(std::uint64_t seed) {
-  sim::SyntheticSnapshotConfig c;
-  c.num_keyframes = 5;
-  c.H = 6;
-  c.W = 8;
-  c.fx = c.fy = 7.0;
-  c.cx = 3.5;
-  c.cy = 2.5;
-  c.seed = seed;
-  return c;
-}
+sim::SyntheticSnapshotConfig smallConfig(std::uint64_t seed) { return testing::gridConfig(seed, 5, 6, 8); }
 
 DbaOptions withGauge(GaugeOptions::Type type, double sigma_rot, double sigma_trans) {
   DbaOptions o;

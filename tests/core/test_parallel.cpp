@@ -5,18 +5,13 @@
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/parallel.h"
 #include "dbacov/sim/synthetic_snapshot.h"
+#include "fixtures.h"
 
 namespace dbacov {
 namespace {
 
 TEST(Parallel, LinearizationIsBitIdenticalForAnyThreadCount) {
-  sim::SyntheticSnapshotConfig c;
-  c.num_keyframes = 9;
-  c.H = 12;
-  c.W = 16;
-  c.fx = c.fy = 14;
-  c.cx = 7.5;
-  c.cy = 5.5;
+  sim::SyntheticSnapshotConfig c = testing::gridConfig(5, 9, 12, 16);
   c.covisibility.edge_radius = 3;
   const auto syn = sim::generateSyntheticSnapshot(c);
   DbaOptions o;

@@ -10,6 +10,7 @@
 #include "dbacov/core/marginal_solver.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "dense_reference.h"
+#include "fixtures.h"
 
 namespace dbacov {
 namespace {
@@ -70,15 +71,8 @@ TEST(SparseSolver, NotPositiveDefiniteNamesTheColumn) {
 }
 
 sim::SyntheticSnapshotConfig graphConfig(std::uint64_t seed, int n) {
-  sim::SyntheticSnapshotConfig c;
-  c.num_keyframes = n;
-  c.H = 6;
-  c.W = 8;
-  c.fx = c.fy = 7.0;
-  c.cx = 3.5;
-  c.cy = 2.5;
+  sim::SyntheticSnapshotConfig c = testing::gridConfig(seed, n, 6, 8);
   c.covisibility.edge_radius = 3;
-  c.seed = seed;
   return c;
 }
 

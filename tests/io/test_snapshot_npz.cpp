@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "snapshot_compare.h"
 #include "dbacov/io/npz.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "io_test_util.h"
@@ -21,20 +22,7 @@ const std::string kDroid = std::string(DBACOV_SHARED_DATA_DIR) + "/droid_window_
     if (!std::filesystem::exists(kDroid)) GTEST_SKIP() << "missing shared data " << kDroid; \
   } while (0)
 
-void expectSameSnapshot(const Snapshot& a, const Snapshot& b) {
-  EXPECT_EQ(a.H, b.H);
-  EXPECT_EQ(a.W, b.W);
-  EXPECT_TRUE(a.poses_cw == b.poses_cw);
-  EXPECT_EQ(a.disps, b.disps);
-  EXPECT_TRUE(a.intrinsics == b.intrinsics);
-  EXPECT_EQ(a.ii, b.ii);
-  EXPECT_EQ(a.jj, b.jj);
-  EXPECT_EQ(a.target, b.target);
-  EXPECT_EQ(a.weight, b.weight);
-  EXPECT_EQ(a.tstamp, b.tstamp);
-  EXPECT_EQ(a.timestamps_s, b.timestamps_s);
-  EXPECT_EQ(a.id, b.id);
-}
+using testing::expectSameSnapshot;
 
 TEST(SnapshotNpz, RealDroidSnapshotKeysShapesAndDtypes) {
   DBACOV_REQUIRE_DROID();

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <mrpt/obs/CObservationRobotPose.h>
 
+#include "snapshot_compare.h"
 #include "app_runner.h"
 #include "dbacov/app/covariance_app.h"
 #include "dbacov/app/droid2rawlog_app.h"
@@ -56,20 +57,7 @@ std::vector<mrpt::obs::CObservationRobotPose::Ptr> readPoses(const std::string& 
   return out;
 }
 
-void expectSameSnapshot(const Snapshot& a, const Snapshot& b) {
-  EXPECT_EQ(a.poses_cw, b.poses_cw);
-  EXPECT_EQ(a.disps, b.disps);
-  EXPECT_EQ(a.intrinsics, b.intrinsics);
-  EXPECT_EQ(a.ii, b.ii);
-  EXPECT_EQ(a.jj, b.jj);
-  EXPECT_EQ(a.target, b.target);
-  EXPECT_EQ(a.weight, b.weight);
-  EXPECT_EQ(a.tstamp, b.tstamp);
-  EXPECT_EQ(a.timestamps_s, b.timestamps_s);
-  EXPECT_EQ(a.id, b.id);
-  EXPECT_EQ(a.H, b.H);
-  EXPECT_EQ(a.W, b.W);
-}
+using testing::expectSameSnapshot;
 
 TEST(Rawlog, SnapshotObservationRoundTrip) {
   testing::TempDir dir;

@@ -17,21 +17,13 @@
 #include "dbacov/core/linearization.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/synthetic_snapshot.h"
+#include "dense_reference.h"
+#include "fixtures.h"
 
 namespace dbacov {
 namespace {
 
-sim::SyntheticSnapshotConfig tinyConfig(std::uint64_t seed) {
-  sim::SyntheticSnapshotConfig c;
-  c.num_keyframes = 5;
-  c.H = 6;
-  c.W = 8;
-  c.fx = c.fy = 7.0;
-  c.cx = 3.5;
-  c.cy = 2.5;
-  c.seed = seed;
-  return c;
-}
+sim::SyntheticSnapshotConfig tinyConfig(std::uint64_t seed) { return testing::gridConfig(seed, 5, 6, 8); }
 
 /// The synthetic snapshot with its graph poses and depths moved away from the optimum.
 Snapshot perturbed(std::uint64_t seed) {
@@ -62,109 +54,19 @@ struct DenseStep {
   double predicted = 0;
 };
 
-/// The damped Gauss-Newton step of the full system, built densely from the pixel factors.
+/// The damped Gauss-Newton step of the full system, built densely from the pixel factors
+/// (tests/common/dense_reference.h).
 DenseStep denseStep(const Snapshot& s, const DbaOptions& o, double lambda) {
-  const std::vector<int> kf = s.graphKeyframes();
-  const int n = static_cast<int>(kf.size()), HW = static_cast<int>(s.pixelsPerFrame());
-  auto slot = [&](int k) {
-    return static_cast<int>(std::find(kf.begin(), kf.end(), k) - kf.begin());
-  };
-  const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
-  struct Row {
-    int si, sj, dv;
-    Eigen::Matrix<double, 1, 6> Ji, Jj;
-    double Jd, r, w;
-  };
-  std::vector<Row> rows;
-  std::map<std::pair<int, int>, int> depth;  // (keyframe, pixel) → variable
-  for (int e = 0; e < s.numEdges(); ++e) {
-    const int i = static_cast<int>(s.ii[e]), j = static_cast<int>(s.jj[e]);
-    const Eigen::Isometry3d T_ji = s.T_cw(j) * s.T_wc(i);
-    for (int p = 0; p < HW; ++p) {
-      const double d = s.disp(i, p / s.W, p % s.W);
-      if (!(d > 0)) continue;
-      const Eigen::Vector3d Y =
-          transferPoint(T_ji.linear(), T_ji.translation(), K, p % s.W, p / s.W, d);
-      if (!keepPixelFactor(o, d, Y.z())) continue;
-      PixelFactorLinearization f;
-      linearizePixelFactor(T_ji.linear(), T_ji.translation(), K, p % s.W, p / s.W, d,
-                           s.targetPlane(e, 0)[p], s.targetPlane(e, 1)[p], &f);
-      for (int c = 0; c < 2; ++c) {
-        const double w = o.weight_scale * s.weightPlane(e, c)[p];
-        if (w == 0) continue;
-        const int dv =
-            depth.emplace(std::make_pair(i, p), static_cast<int>(depth.size())).first->second;
-        rows.push_back({slot(i), slot(j), dv, f.J_i.row(c), f.J_j.row(c), f.J_d[c], f.r[c], w});
-      }
-    }
-  }
-  const int dim = 6 * n + static_cast<int>(depth.size());
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(dim, dim);
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(dim);
-  for (const Row& r : rows) {  // H += w JᵀJ, g += w r Jᵀ over the 13 non-zero entries of the row
-    int idx[13];
-    double val[13];
-    for (int q = 0; q < 6; ++q) {
-      idx[q] = 6 * r.si + q;
-      val[q] = r.Ji[q];
-      idx[6 + q] = 6 * r.sj + q;
-      val[6 + q] = r.Jj[q];
-    }
-    idx[12] = 6 * n + r.dv;
-    val[12] = r.Jd;
-    for (int a = 0; a < 13; ++a) {
-      g[idx[a]] += r.w * r.r * val[a];
-      for (int b = 0; b < 13; ++b) H(idx[a], idx[b]) += r.w * val[a] * val[b];
-    }
-  }
-  // Gauge: the two lowest keyframes in ii; a soft prior (zero residual here) or a selection.
-  std::set<std::int64_t> src(s.ii.begin(), s.ii.end());
-  const int ga = slot(static_cast<int>(*src.begin())),
-            gb = slot(static_cast<int>(*std::next(src.begin())));
-  std::vector<Eigen::VectorXd> cols;
-  auto unit = [&](int q) {
-    Eigen::VectorXd v = Eigen::VectorXd::Zero(dim);
-    v[q] = 1;
-    return v;
-  };
-  for (int q = 0; q < dim; ++q) {
-    const int sl = q < 6 * n ? q / 6 : -1;
-    if (sl != ga && sl != gb) {
-      cols.push_back(unit(q));
-      continue;
-    }
-    if (o.gauge.type != GaugeOptions::Type::TwoPose) continue;
-    const double sigma = q % 6 < 3 ? o.gauge.sigma_trans : o.gauge.sigma_rot;
-    if (sigma > 0) {
-      cols.push_back(unit(q));
-      H(q, q) += 1.0 / (sigma * sigma);
-    }
-  }
-  if (o.gauge.type == GaugeOptions::Type::Minimal) {
-    const Eigen::Isometry3d Ta = s.T_wc(kf[ga]), Tb = s.T_wc(kf[gb]);
-    Eigen::Matrix<double, 1, 6> dist;
-    for (int q = 0; q < 6; ++q) {
-      Vector6d dx = Vector6d::Zero();
-      dx[q] = 1e-6;
-      dist[q] = ((Tb * expSE3(dx)).translation() - Ta.translation()).norm() -
-                ((Tb * expSE3(-dx)).translation() - Ta.translation()).norm();
-    }
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(Eigen::MatrixXd(dist), Eigen::ComputeFullV);
-    for (int c = 1; c < 6; ++c) {
-      Eigen::VectorXd v = Eigen::VectorXd::Zero(dim);
-      v.segment<6>(6 * gb) = svd.matrixV().col(c);
-      cols.push_back(v);
-    }
-  }
-  Eigen::MatrixXd P(dim, cols.size());
-  for (std::size_t c = 0; c < cols.size(); ++c) P.col(c) = cols[c];
-  Eigen::MatrixXd H_l = H;
-  H_l.diagonal() += lambda * H.diagonal();
-  const Eigen::VectorXd delta = P * (P.transpose() * H_l * P).ldlt().solve(-P.transpose() * g);
+  const testing::DenseFullSystem sys = testing::denseFullSystem(s, o);
+  const Eigen::MatrixXd& P = sys.P;
+  Eigen::MatrixXd H_l = sys.H;
+  H_l.diagonal() += lambda * sys.H.diagonal();
+  const Eigen::VectorXd delta = P * (P.transpose() * H_l * P).ldlt().solve(-P.transpose() * sys.g);
   DenseStep out;
-  out.xi = delta.head(6 * n);
-  for (const auto& [key, v] : depth) out.dd[key] = delta[6 * n + v];
-  out.predicted = -g.dot(delta) - 0.5 * delta.dot(H * delta);
+  const int np = sys.numPoseDims();
+  out.xi = delta.head(np);
+  for (std::size_t v = 0; v < sys.depth_vars.size(); ++v) out.dd[sys.depth_vars[v]] = delta[np + v];
+  out.predicted = -sys.g.dot(delta) - 0.5 * delta.dot(sys.H * delta);
   return out;
 }
 

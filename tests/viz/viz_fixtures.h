@@ -15,20 +15,15 @@
 
 #include "dbacov/sim/synthetic_snapshot.h"
 
+#include "fixtures.h"
+
 namespace dbacov::testing {
 
 /// Snapshot s of a DROID-like sliding window (like simul-dba): keyframes 0..s+window−1 in
 /// `poses`, edges among the last `window`; 8×10 grid, keyframe times at 20 Hz.
 inline Snapshot windowSnapshot(int s, int window = 5, std::uint64_t seed = 3) {
-  sim::SyntheticSnapshotConfig c;
-  c.num_keyframes = s + window;
+  sim::SyntheticSnapshotConfig c = gridConfig(seed + static_cast<std::uint64_t>(s), s + window, 8, 10);
   c.first_keyframe = s;
-  c.H = 8;
-  c.W = 10;
-  c.fx = c.fy = 9;
-  c.cx = 4.5;
-  c.cy = 3.5;
-  c.seed = seed + static_cast<std::uint64_t>(s);
   c.id = s;
   Snapshot snap = sim::generateSyntheticSnapshot(c).snapshot;
   deriveKeyframeTimes(snap, 20.0);
