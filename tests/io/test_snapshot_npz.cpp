@@ -22,7 +22,7 @@ const std::string kDroid = std::string(DBACOV_SHARED_DATA_DIR) + "/droid_window_
     if (!std::filesystem::exists(kDroid)) GTEST_SKIP() << "missing shared data " << kDroid; \
   } while (0)
 
-using testing::expectSameSnapshot;
+using ::dbacov::testing::expectSameSnapshot;
 
 TEST(SnapshotNpz, RealDroidSnapshotKeysShapesAndDtypes) {
   DBACOV_REQUIRE_DROID();

@@ -57,7 +57,7 @@ std::vector<mrpt::obs::CObservationRobotPose::Ptr> readPoses(const std::string& 
   return out;
 }
 
-using testing::expectSameSnapshot;
+using ::dbacov::testing::expectSameSnapshot;
 
 TEST(Rawlog, SnapshotObservationRoundTrip) {
   testing::TempDir dir;
