@@ -21,6 +21,7 @@
 
 #include "dbacov/core/errors.h"
 #include "dbacov/io/npy.h"
+#include "largest_allocation.h"
 #include "temp_dir.h"
 
 #ifndef DBACOV_PYTHON
@@ -91,9 +92,7 @@ inline void expectMentions(const std::string& message, std::initializer_list<std
     EXPECT_NE(message.find(p), std::string::npos) << "message lacks \"" << p << "\": " << message;
 }
 
-/// Largest single operator-new request made while `f` runs. The global operator new of the test
-/// binary is replaced in test_npy.cpp to record it.
-std::size_t largestAllocationDuring(const std::function<void()>& f);
+using ::dbacov::testing::largestAllocationDuring;
 
 // Reference arrays, defined identically here and in Python (kPyReference) so that NumPy and our
 // code can be compared value by value. Element i of a descr:

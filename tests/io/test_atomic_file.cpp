@@ -100,10 +100,15 @@ TEST_P(AtomicFileTest, FailuresNameThePathAndLeaveNothing) {
       {dir_.file("no/such/dir/x.txt"), "No such file or directory"});
   expectMentions(inputErrorOf([&] { AtomicOutputFile f(dir_.path() + "/", GetParam()); }),
                  {"not a file path"});
-  // rename() cannot replace a non-empty directory: commit fails and cleans up.
+  // A directory at the final path is refused at once; one that appears later makes rename()
+  // fail at commit (it cannot replace a non-empty directory), which cleans up.
+  std::filesystem::create_directory(dir_.file("dir"));
+  expectMentions(inputErrorOf([&] { AtomicOutputFile d(dir_.file("dir"), GetParam()); }),
+                 {dir_.file("dir"), "is a directory"});
+  std::filesystem::remove(dir_.file("dir"));
+  AtomicOutputFile f(dir_.file("taken"), GetParam());
   std::filesystem::create_directory(dir_.file("taken"));
   std::ofstream(dir_.file("taken/inner")) << "x";
-  AtomicOutputFile f(dir_.file("taken"), GetParam());
   writeString(f, "data");
   expectMentions(inputErrorOf([&] { f.commit(); }), {dir_.file("taken"), "cannot rename"});
   EXPECT_EQ(dir_.entries(), (std::vector<std::string>{"out.txt", "taken"}));

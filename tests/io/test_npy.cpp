@@ -1,50 +1,13 @@
 // .npy parser and writer against NumPy (byte-identical output, values both ways) and against
-// hand-made broken inputs. Also replaces the global operator new to catch huge allocations.
-#include <atomic>
-#include <cstdlib>
+// hand-made broken inputs, with the largest allocation measured for hostile headers.
 #include <limits>
-#include <new>
 
 #include <gtest/gtest.h>
 
 #include "dbacov/io/npy.h"
 #include "io_test_util.h"
 
-namespace {
-std::atomic<bool> g_tracking{false};
-std::atomic<std::size_t> g_largest{0};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (g_tracking.load(std::memory_order_relaxed)) {
-    std::size_t cur = g_largest.load();
-    while (n > cur && !g_largest.compare_exchange_weak(cur, n)) {
-    }
-  }
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-// GCC cannot see that this operator new above is the matching allocation function.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
-#pragma GCC diagnostic pop
-
 namespace dbacov::io::testing {
-
-std::size_t largestAllocationDuring(const std::function<void()>& f) {
-  g_largest = 0;
-  g_tracking = true;
-  f();
-  g_tracking = false;
-  return g_largest;
-}
-
 namespace {
 
 using DType = NpyArray::DType;

@@ -191,15 +191,19 @@ class CholmodMarginalSolver final : public MarginalSolver {
       const Eigen::Map<const Eigen::MatrixXd> Ls(Lx_ + px_[s], nr, w);
       const Eigen::MatrixXd Lcc = Ls.topRows(w);
       Eigen::Map<Eigen::MatrixXd> Zs(Z_.data() + px_[s], nr, w);
-      // Y = L_RC L_CC⁻¹  (Yᵀ = L_CC⁻ᵀ L_RCᵀ)
-      const Eigen::MatrixXd Y =
-          Lcc.triangularView<Eigen::Lower>().transpose().solve(Ls.bottomRows(m).transpose()).transpose();
-      const Eigen::MatrixXd ZRR = gatherZ(rows + w, m, pos);
-      Zs.bottomRows(m).noalias() = -ZRR * Y;
       Eigen::MatrixXd Linv = Eigen::MatrixXd::Identity(w, w);
       Lcc.triangularView<Eigen::Lower>().solveInPlace(Linv);
       Eigen::MatrixXd Zcc = Linv.transpose() * Linv;
-      Zcc.noalias() -= Zs.bottomRows(m).transpose() * Y;
+      // The last supernodes have no rows below their columns (m = 0); Eigen's triangular solve
+      // must not see an empty right-hand side (it takes a reference to its first coefficient).
+      if (m > 0) {
+        // Y = L_RC L_CC⁻¹  (Yᵀ = L_CC⁻ᵀ L_RCᵀ)
+        const Eigen::MatrixXd Y = Lcc.triangularView<Eigen::Lower>().transpose().solve(
+                                         Ls.bottomRows(m).transpose()).transpose();
+        const Eigen::MatrixXd ZRR = gatherZ(rows + w, m, pos);
+        Zs.bottomRows(m).noalias() = -ZRR * Y;
+        Zcc.noalias() -= Zs.bottomRows(m).transpose() * Y;
+      }
       Zs.topRows(w) = 0.5 * (Zcc + Zcc.transpose());
     }
   }

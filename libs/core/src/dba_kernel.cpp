@@ -77,10 +77,13 @@ void Accumulator::reset(int touched, int edges, bool keep_depth_terms) {
   gv.assign(kChunk, 0.0);
 }
 
-// Compiled for AVX2+FMA and for the baseline; the dynamic loader picks one (ifunc).
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-void processChunk(const Camera& cam, const Filter& flt, int p0, int n, const double* xn,
-                  const double* yn, const double* d, const Edge* edges, Accumulator& acc) {
+namespace {
+
+// The body of processChunk, inlined into one function per instruction set below.
+__attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Filter& flt, int p0,
+                                                     int n, const double* xn, const double* yn,
+                                                     const double* d, const Edge* edges,
+                                                     Accumulator& acc) {
   const int T6 = 6 * acc.T;
   double* b = acc.b.data();  // b[m * kChunk + p]: entry m of b_k for lane p
   double* hv = acc.hv.data();
@@ -219,6 +222,36 @@ void processChunk(const Camera& cam, const Filter& flt, int p0, int n, const dou
     acc.gS[m] += sum;
   }
   syrkLower(T6, kChunk, b, acc.W.data(), T6);
+}
+
+// Compiled for AVX2+FMA and for the x86-64 baseline; processChunk picks one at run time. (Not
+// GCC's target_clones: clang 14 ignores it on a function declared earlier, and where it clones,
+// it defines no symbol that other files can call.)
+__attribute__((target("avx2,fma"))) void chunkAvx2Fma(const Camera& cam, const Filter& flt, int p0,
+                                                       int n, const double* xn, const double* yn,
+                                                       const double* d, const Edge* edges,
+                                                       Accumulator& acc) {
+  chunkBody(cam, flt, p0, n, xn, yn, d, edges, acc);
+}
+void chunkBaseline(const Camera& cam, const Filter& flt, int p0, int n, const double* xn,
+                   const double* yn, const double* d, const Edge* edges, Accumulator& acc) {
+  chunkBody(cam, flt, p0, n, xn, yn, d, edges, acc);
+}
+
+bool cpuHasAvx2Fma() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+
+}  // namespace
+
+void processChunk(const Camera& cam, const Filter& flt, int p0, int n, const double* xn,
+                  const double* yn, const double* d, const Edge* edges, Accumulator& acc) {
+  static const bool avx2_fma = cpuHasAvx2Fma();
+  if (avx2_fma)
+    chunkAvx2Fma(cam, flt, p0, n, xn, yn, d, edges, acc);
+  else
+    chunkBaseline(cam, flt, p0, n, xn, yn, d, edges, acc);
 }
 
 }  // namespace dbacov::kernel

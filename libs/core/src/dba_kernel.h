@@ -4,9 +4,10 @@
 // leaving it. Pixels are the SIMD lanes: every per-pixel quantity lives in a short array, invalid
 // lanes (d <= 0, zero weight, filtered, behind the camera) carry zero whitening weight, and the
 // reductions over pixels (normal equations, Schur update) run as dot products over those arrays.
-// The function is compiled twice (GCC target_clones: Haswell-class AVX2+FMA and the x86-64
-// baseline) and the loader picks the variant the CPU supports. It uses no Eigen and no heap memory:
-// Eigen's allocation code must not be instantiated with two different alignments in one process.
+// The function is compiled twice (AVX2+FMA, Haswell class, and the x86-64 baseline) and picks the
+// variant the CPU supports at its first call (portable to GCC and clang). It uses no Eigen and no
+// heap memory: Eigen's allocation code must not be instantiated with two different alignments in
+// one process.
 #pragma once
 
 #include <cstddef>

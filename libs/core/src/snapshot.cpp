@@ -98,15 +98,22 @@ void Snapshot::validate() const {
                       " to itself (ii == jj)");
   }
 
+  static const char* const kPoseColumns[7] = {"tx", "ty", "tz", "qx", "qy", "qz", "qw"};
   for (std::size_t k = 0; k < N; ++k) {
-    if (firstNonFinite(poses_cw.row(k).data(), 7) >= 0)
-      fail(*this, "key 'poses' keyframe " + std::to_string(k) + " has a non-finite value");
+    if (long long c = firstNonFinite(poses_cw.row(k).data(), 7); c >= 0)
+      fail(*this, "key 'poses' keyframe " + std::to_string(k) + " has the non-finite value " +
+                      std::to_string(poses_cw(k, c)) + " in column " + std::to_string(c) + " (" +
+                      kPoseColumns[c] + "), expected a finite pose [tx ty tz qx qy qz qw]");
     if (poses_cw.row(k).tail<4>().norm() < 1e-6)
       fail(*this, "key 'poses' keyframe " + std::to_string(k) +
                       " has a zero quaternion, expected a unit quaternion [qx qy qz qw]");
   }
-  if (firstNonFinite(intrinsics.data(), 4) >= 0 || !(intrinsics[0] > 0) || !(intrinsics[1] > 0))
-    fail(*this, "key 'intrinsics' must be finite with fx, fy > 0");
+  if (firstNonFinite(intrinsics.data(), 4) >= 0 || !(intrinsics[0] > 0) || !(intrinsics[1] > 0)) {
+    std::ostringstream os;
+    os << "key 'intrinsics' is [fx fy cx cy] = [" << intrinsics[0] << ' ' << intrinsics[1] << ' '
+       << intrinsics[2] << ' ' << intrinsics[3] << "], expected finite values with fx, fy > 0";
+    fail(*this, os.str());
+  }
 
   auto pixelOf = [&](std::size_t flat, std::size_t planes_per_item, const char* item) {
     const std::size_t plane = flat / HW, p = flat % HW;
@@ -122,14 +129,22 @@ void Snapshot::validate() const {
     fail(*this, "key 'target' is non-finite at " + pixelOf(bad, 2, "edge"));
   if (long long bad = firstNonFinite(weight.data(), weight.size()); bad >= 0)
     fail(*this, "key 'weight' is non-finite at " + pixelOf(bad, 2, "edge"));
-  for (std::size_t i = 0; i < weight.size(); ++i)
+  bool any_weight = false;
+  for (std::size_t i = 0; i < weight.size(); ++i) {
     if (weight[i] < 0)
       fail(*this, "key 'weight' is negative (" + std::to_string(weight[i]) + ") at " +
                       pixelOf(i, 2, "edge") + ", expected confidences >= 0");
-  if (firstNonFinite(tstamp.data(), tstamp.size()) >= 0)
-    fail(*this, "key 'tstamp' has a non-finite value");
-  if (timestamps_s && firstNonFinite(timestamps_s->data(), timestamps_s->size()) >= 0)
-    fail(*this, "key 'timestamps_s' has a non-finite value");
+    any_weight |= weight[i] > 0;
+  }
+  if (!any_weight)
+    fail(*this, "key 'weight' is zero at every pixel of every edge: the snapshot carries no "
+                "information, expected some confidences > 0");
+  for (const auto& [key, times] : {std::pair<const char*, const std::vector<double>*>{"tstamp", &tstamp},
+                                   {"timestamps_s", timestamps_s ? &*timestamps_s : nullptr}})
+    if (long long k = times ? firstNonFinite(times->data(), times->size()) : -1; k >= 0)
+      fail(*this, std::string("key '") + key + "' keyframe " + std::to_string(k) +
+                      " has the non-finite value " + std::to_string((*times)[k]) +
+                      ", expected a finite time");
 }
 
 double keyframeTime(const Snapshot& s, int k) {

@@ -83,6 +83,9 @@ AtomicOutputFile::AtomicOutputFile(std::string final_path, TempKind kind)
   dir_ = slash == std::string::npos ? "." : slash == 0 ? "/" : final_path_.substr(0, slash);
   if (name.empty() || name == "." || name == "..")
     throw InputError(final_path_ + ": not a file path (it names a directory)");
+  struct stat st {};
+  if (::stat(final_path_.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+    throw InputError(final_path_ + ": is a directory, expected a file path");
 
 #ifdef O_TMPFILE
   if (kind == TempKind::kAuto) {

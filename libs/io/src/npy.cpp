@@ -184,8 +184,16 @@ NpyArray readNpyStream(std::uint64_t available, const ByteReader& read,
   NpyArray a;
   a.dtype = h.dtype;
   a.shape = h.shape;
-  a.data.resize(h.data_bytes);
-  readExact(a.data.data(), a.data.size(), "data");
+  // `available` is what the container claims (a zip member's recorded size), not bytes in hand: a
+  // damaged deflate stream may claim far more than it delivers. Grow the buffer with the data that
+  // really arrives, so memory stays proportional to it.
+  constexpr std::size_t kStep = std::size_t{16} << 20;
+  while (a.data.size() < h.data_bytes) {
+    const std::size_t done = a.data.size();
+    const std::size_t step = std::min(h.data_bytes - done, std::max(kStep, done));
+    a.data.resize(done + step);
+    readExact(a.data.data() + done, step, "data");
+  }
   unsigned char extra = 0;
   if (read(&extra, 1) != 0) throw InputError(context + ": more data than the header declares");
   return a;

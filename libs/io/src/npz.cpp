@@ -55,8 +55,31 @@ struct NpzReader::Impl {
   std::string path;
   std::uint64_t max_entry_bytes = 0;
   std::uint64_t file_size = 0;
+  std::vector<unsigned char> bytes;  ///< the archive, when read from memory (libzip borrows it)
   ZipPtr zip;
 };
+
+NpzReader::NpzReader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+NpzReader NpzReader::fromMemory(const std::string& name, std::vector<unsigned char> bytes,
+                                std::uint64_t max_entry_bytes) {
+  auto impl = std::make_unique<Impl>();
+  impl->path = name;
+  impl->max_entry_bytes = max_entry_bytes;
+  impl->file_size = bytes.size();
+  impl->bytes = std::move(bytes);
+  zip_error_t error;
+  zip_error_init(&error);
+  std::unique_ptr<zip_error_t, ZipErrorFini> error_guard(&error);
+  ZipSourcePtr source(zip_source_buffer_create(impl->bytes.data(), impl->bytes.size(), 0, &error));
+  if (!source)
+    throw InputError(name + ": cannot open as a .npz (zip) archive: " + zip_error_strerror(&error));
+  impl->zip.reset(zip_open_from_source(source.get(), ZIP_RDONLY, &error));
+  if (!impl->zip)
+    throw InputError(name + ": cannot open as a .npz (zip) archive: " + zip_error_strerror(&error));
+  static_cast<void>(source.release());  // the archive owns the source now
+  return NpzReader(std::move(impl));
+}
 
 NpzReader::NpzReader(const std::string& path, std::uint64_t max_entry_bytes)
     : impl_(std::make_unique<Impl>()) {

@@ -14,7 +14,7 @@ namespace {
 /// Reads the keys of one archive and checks their shapes, with messages that name file and key.
 class SnapshotReader {
  public:
-  explicit SnapshotReader(const std::string& path) : path_(path), npz_(path) {}
+  SnapshotReader(const std::string& path, NpzReader npz) : path_(path), npz_(std::move(npz)) {}
 
   std::string context(const std::string& key) const { return path_ + ": key '" + key + "'"; }
 
@@ -57,10 +57,9 @@ class SnapshotReader {
   NpzReader npz_;
 };
 
-}  // namespace
-
-Snapshot loadSnapshotNpz(const std::string& path, std::int64_t index) {
-  const SnapshotReader r(path);
+/// Reads and checks every key of the archive `npz` (SPEC §1); `path` names it in messages.
+Snapshot readSnapshot(const std::string& path, NpzReader npz, std::int64_t index) {
+  const SnapshotReader r(path, std::move(npz));
   const NpyArray poses = r.required("poses"), disps = r.required("disps"),
                  intrinsics = r.required("intrinsics"), ii = r.required("ii"),
                  jj = r.required("jj"), target = r.required("target"),
@@ -109,6 +108,17 @@ Snapshot loadSnapshotNpz(const std::string& path, std::int64_t index) {
   if (id) s.id = npyToInt64s(*id, r.context("id")).at(0);
   s.validate();
   return s;
+}
+
+}  // namespace
+
+Snapshot loadSnapshotNpz(const std::string& path, std::int64_t index) {
+  return readSnapshot(path, NpzReader(path), index);
+}
+
+Snapshot loadSnapshotNpzFromMemory(const std::string& name, std::vector<unsigned char> bytes,
+                                   std::int64_t index) {
+  return readSnapshot(name, NpzReader::fromMemory(name, std::move(bytes)), index);
 }
 
 void saveSnapshotNpz(const std::string& path, const Snapshot& s, bool compressed) {

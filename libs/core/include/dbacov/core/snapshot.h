@@ -79,7 +79,8 @@ struct Snapshot {
   /// Checks shapes, index ranges and values (SPEC §1). Throws InputError naming `source`, the key
   /// and what was expected: inconsistent shapes, ii/jj out of range or equal, non-finite poses or
   /// zero-norm quaternions, non-finite intrinsics/disps/targets/weights/time stamps, negative
-  /// weights, non-positive focal lengths.
+  /// weights, weights that are zero everywhere (no information at all), non-positive focal
+  /// lengths.
   void validate() const;
 };
 

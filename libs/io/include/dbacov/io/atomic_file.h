@@ -13,7 +13,8 @@
 //   - Destroying the object without a successful commit() discards the output; `final_path` is
 //     never touched. Only a SIGKILL between linkat and rename in commit() (microseconds) can leave
 //     a named temporary behind.
-// Errors (directory missing or not writable, disk full, rename failure) throw dbacov::InputError
+// Errors (`final_path` is a directory, directory missing or not writable, disk full, rename
+// failure) throw dbacov::InputError
 // naming `final_path` and the system error. Misuse (write or commit after commit) throws
 // std::logic_error. Not thread-safe; one object per output file.
 #pragma once

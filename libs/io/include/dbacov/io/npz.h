@@ -39,6 +39,10 @@ class NpzReader {
   /// Opens `path`. Throws InputError if it cannot be opened or is not a zip archive.
   explicit NpzReader(const std::string& path,
                      std::uint64_t max_entry_bytes = kDefaultMaxEntryBytes);
+  /// Reads an archive held in memory (the same checks; `name` stands for the path in messages).
+  /// Used by the fuzz targets and by callers that already hold the bytes.
+  static NpzReader fromMemory(const std::string& name, std::vector<unsigned char> bytes,
+                              std::uint64_t max_entry_bytes = kDefaultMaxEntryBytes);
   ~NpzReader();
   NpzReader(NpzReader&&) noexcept;
   NpzReader& operator=(NpzReader&&) noexcept;
@@ -56,6 +60,7 @@ class NpzReader {
 
  private:
   struct Impl;
+  explicit NpzReader(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
 

@@ -28,6 +28,10 @@ namespace dbacov::io {
 
 /// Loads and validates the snapshot in `path`; sets `source` = path and `index` = index.
 Snapshot loadSnapshotNpz(const std::string& path, std::int64_t index);
+/// The same for the bytes of a `.npz` file held in memory; `name` stands for the path (in
+/// messages and as `source`).
+Snapshot loadSnapshotNpzFromMemory(const std::string& name, std::vector<unsigned char> bytes,
+                                   std::int64_t index);
 
 /// Writes `snapshot` to `path` atomically with the keys of SPEC §1: poses float64 (N,7); disps,
 /// intrinsics, target, weight float32; ii, jj int64 (E,); tstamp and (if present) timestamps_s

@@ -1,0 +1,75 @@
+// DeferredFiles: an unnamed spool file, then one AtomicOutputFile per queued file. See the header.
+#include "dbacov/io/deferred_files.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+
+#include "dbacov/io/atomic_file.h"
+
+namespace dbacov::io {
+
+DeferredFiles::DeferredFiles(const std::string& spool_dir) : dir_(spool_dir.empty() ? "." : spool_dir) {
+#ifdef O_TMPFILE
+  fd_ = ::open(dir_.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+#endif
+  if (fd_ < 0) {
+    // No O_TMPFILE here: a named temporary, unlinked at once (only a crash within these two
+    // calls could leave it behind).
+    std::string templ = dir_ + "/.dbacov_spool.XXXXXX";
+    fd_ = ::mkstemp(templ.data());
+    if (fd_ < 0)
+      throw InputError(dir_ + ": cannot create a temporary spool file: " + std::strerror(errno));
+    ::unlink(templ.c_str());
+    ::fcntl(fd_, F_SETFD, FD_CLOEXEC);
+  }
+}
+
+DeferredFiles::~DeferredFiles() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void DeferredFiles::add(const std::string& path, const void* data, std::size_t size) {
+  if (committed_) throw std::logic_error("DeferredFiles::add: " + path + ": already committed");
+  const char* p = static_cast<const char*>(data);
+  const Extent extent{end_, size};
+  for (std::size_t done = 0; done < size;) {
+    const ssize_t n = ::pwrite(fd_, p + done, std::min<std::size_t>(size - done, std::size_t{1} << 30),
+                               static_cast<off_t>(end_ + done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0)
+      throw InputError(path + ": cannot queue the output in a spool file in '" + dir_ +
+                       "': " + std::strerror(n < 0 ? errno : EIO));
+    done += static_cast<std::size_t>(n);
+  }
+  end_ += size;
+  if (files_.insert_or_assign(path, extent).second) order_.push_back(path);
+}
+
+void DeferredFiles::commit() {
+  if (committed_) throw std::logic_error("DeferredFiles::commit: already committed");
+  committed_ = true;
+  std::vector<char> buffer;
+  for (const std::string& path : order_) {
+    const Extent e = files_.at(path);
+    buffer.resize(static_cast<std::size_t>(e.size));
+    for (std::size_t done = 0; done < buffer.size();) {
+      const ssize_t n = ::pread(fd_, buffer.data() + done, buffer.size() - done,
+                                static_cast<off_t>(e.offset + done));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0)
+        throw InputError(path + ": cannot read the queued output back from the spool file: " +
+                         std::strerror(n < 0 ? errno : EIO));
+      done += static_cast<std::size_t>(n);
+    }
+    AtomicOutputFile out(path);
+    out.write(buffer.data(), buffer.size());
+    out.commit();
+  }
+}
+
+}  // namespace dbacov::io
