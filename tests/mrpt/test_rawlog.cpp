@@ -24,6 +24,9 @@ using testing::AppResult;
 
 const std::string kBin = std::string(DBACOV_BINARY_DIR) + "/bin/";
 const std::string kPlugin = std::string(DBACOV_BINARY_DIR) + "/lib/libdbacov_mrpt.so";
+// MRPT's own rawlog-edit; DBACOV_PLUGIN_ENV preloads the sanitizer runtime that an instrumented
+// plugin needs (empty in normal builds, see CMakeLists.txt).
+const std::string kRawlogEdit = std::string(DBACOV_PLUGIN_ENV) + "rawlog-edit ";
 const std::string kShared = std::string(DBACOV_SHARED_DATA_DIR) + "/droid_window_0055.npz";
 
 bool contains(const std::string& hay, const std::string& needle) {
@@ -39,7 +42,7 @@ AppResult droid2rawlog(const std::vector<std::string>& args) {
 
 /// The "Overall number of objects" line of `rawlog-edit --info`.
 int rawlogEditObjectCount(const std::string& rawlog, bool plugin) {
-  const AppResult r = testing::runCommand("rawlog-edit " + (plugin ? "-p " + kPlugin + " " : std::string()) +
+  const AppResult r = testing::runCommand(kRawlogEdit + (plugin ? "-p " + kPlugin + " " : std::string()) +
                                           "--info -i " + rawlog);
   const auto pos = r.out.find("Overall number of objects");
   if (r.code != 0 || pos == std::string::npos) return -1;
@@ -93,7 +96,7 @@ TEST(Rawlog, RawlogEditReadsSnapshotsOnlyWithThePlugin) {
   EXPECT_EQ(rawlogEditObjectCount(dir.file("s.rawlog"), true), 3);
   // Without the plugin MRPT stops at the unknown class and still exits 0 (SPEC §6).
   EXPECT_LT(rawlogEditObjectCount(dir.file("s.rawlog"), false), 3);
-  const AppResult info = testing::runCommand("rawlog-edit -p " + kPlugin + " --info -i " + dir.file("s.rawlog"));
+  const AppResult info = testing::runCommand(kRawlogEdit + "-p " + kPlugin + " --info -i " + dir.file("s.rawlog"));
   EXPECT_TRUE(contains(info.out, "DBA_SNAPSHOT /      3")) << info.out;
 }
 

@@ -1,21 +1,27 @@
 #include "mrpt_errors.h"
 
 #include <sstream>
+#include <vector>
 
 namespace dbacov::mrpt_bridge {
 
 std::string conciseMrptMessage(const std::string& what) {
   std::istringstream in(what);
-  std::string out;
+  std::vector<std::string> messages;
   for (std::string line; std::getline(in, line);) {
     if (line.rfind("Location:", 0) == 0 || line.rfind("Call stack", 0) == 0) break;
     if (line.empty() || line.rfind("====", 0) == 0 || line == "Original exception:") continue;
     if (line.rfind("Message:", 0) == 0) line = line.substr(8);
     const auto first = line.find_first_not_of(' ');
-    if (first == std::string::npos) continue;
-    if (!out.empty()) out += ": ";
-    out += line.substr(first);
+    if (first != std::string::npos) messages.push_back(line.substr(first));
   }
+  // CArchive wraps whatever a deserializer throws in "Exception while parsing typed object 'C'
+  // from <stream>": the stream is named by the caller already and the inner message says more.
+  const std::string kWrapper = "Exception while parsing typed object";
+  if (messages.size() > 1 && messages.front().rfind(kWrapper, 0) == 0)
+    messages.erase(messages.begin());
+  std::string out;
+  for (const std::string& m : messages) out += (out.empty() ? "" : ": ") + m;
   return out.empty() ? what : out;
 }
 

@@ -1,6 +1,9 @@
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 
-#include <mrpt/core/initializer.h>
+#include <algorithm>
+#include <cstdio>
+#include <vector>
+
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/serialization/CArchive.h>
 
@@ -14,10 +17,57 @@ void writeArray(mrpt::serialization::CArchive& out, const T* data, std::size_t n
   if (n) out.WriteBufferFixEndianness(data, n);
 }
 
+/// Reads `n` elements of type T for array `key`. The buffer grows with the data that really
+/// arrives (16 MiB steps, then doubling), so a record that declares more than the stream holds
+/// costs no more memory than what it holds.
 template <typename T>
-void readArray(mrpt::serialization::CArchive& in, T* data, std::size_t n, const char* key) {
-  if (n && in.ReadBufferFixEndianness(data, n) != n * sizeof(T))
-    throw InputError(std::string("snapshot record truncated in '") + key + "'");
+void readArray(mrpt::serialization::CArchive& in, std::vector<T>& out, std::size_t n,
+               const char* key) {
+  constexpr std::size_t kStep = (std::size_t{16} << 20) / sizeof(T);
+  out.clear();
+  while (out.size() < n) {
+    const std::size_t done = out.size(), step = std::min(n - done, std::max(kStep, done));
+    out.resize(done + step);
+    std::size_t got = 0;
+    try {
+      got = in.ReadBufferFixEndianness(out.data() + done, step);
+    } catch (const std::exception&) {
+      got = 0;  // MRPT throws when the stream has ended
+    }
+    if (got > step * sizeof(T))  // the stream reported an error (e.g. damaged gz data)
+      throw InputError("snapshot record unreadable in '" + std::string(key) +
+                       "': the stream reports a read error (damaged compressed data?)");
+    if (got != step * sizeof(T))
+      throw InputError("snapshot record truncated in '" + std::string(key) + "': it declares " +
+                       std::to_string(n) + " values (" + std::to_string(n * sizeof(T)) +
+                       " bytes) but the stream ends after " +
+                       std::to_string(done * sizeof(T) + got) + " bytes");
+  }
+}
+
+/// A presence flag written as a bool: one byte that must be 0 or 1 (read as a byte, since
+/// loading any other value into a bool is undefined).
+bool readFlag(mrpt::serialization::CArchive& in, const char* key) {
+  const auto flag = in.ReadAs<std::uint8_t>();
+  if (flag > 1)
+    throw InputError("snapshot record has the presence flag " + std::to_string(flag) + " for '" +
+                     key + "', expected 0 or 1");
+  return flag == 1;
+}
+
+/// The longest sensorLabel accepted (MRPT labels are short names).
+constexpr std::uint32_t kMaxLabelBytes = 1 << 16;
+
+/// MRPT's std::string serialization (uint32 length, then the bytes), with the length checked
+/// before anything is allocated.
+std::string readLabel(mrpt::serialization::CArchive& in) {
+  const auto n = in.ReadAs<std::uint32_t>();
+  if (n > kMaxLabelBytes)
+    throw InputError("snapshot record declares a sensorLabel of " + std::to_string(n) +
+                     " bytes, more than the " + std::to_string(kMaxLabelBytes) + " accepted");
+  std::vector<char> bytes;
+  readArray(in, bytes, n, "sensorLabel");
+  return std::string(bytes.begin(), bytes.end());
 }
 
 }  // namespace
@@ -46,7 +96,8 @@ void CObservationDbaSnapshot::serializeTo(mrpt::serialization::CArchive& out) co
 void CObservationDbaSnapshot::serializeFrom(mrpt::serialization::CArchive& in, uint8_t version) {
   if (version != 0) MRPT_THROW_UNKNOWN_SERIALIZATION_VERSION(version);
   Snapshot s;
-  in >> timestamp >> sensorLabel;
+  in >> timestamp;
+  sensorLabel = readLabel(in);
   const int32_t N = in.ReadAs<int32_t>(), H = in.ReadAs<int32_t>(), W = in.ReadAs<int32_t>(),
                 E = in.ReadAs<int32_t>();
   if (N < 0 || H < 0 || W < 0 || E < 0)
@@ -57,36 +108,32 @@ void CObservationDbaSnapshot::serializeFrom(mrpt::serialization::CArchive& in, u
   // (in floating point: the exact product of hostile sizes may overflow 64 bits)
   const std::uint64_t hw = std::uint64_t(H) * std::uint64_t(W);
   const double bytes = double(N) * (7 * 8 + 4 * double(hw) + 16) + double(E) * (16 + 16 * double(hw));
-  if (bytes > double(kMaxSnapshotBytes))
-    throw InputError("snapshot record declares " + std::to_string(static_cast<long double>(bytes)) + " bytes (N=" +
-                     std::to_string(N) + ", H=" + std::to_string(H) + ", W=" + std::to_string(W) +
-                     ", E=" + std::to_string(E) + "), more than the limit of " +
-                     std::to_string(kMaxSnapshotBytes));
+  if (bytes > double(kMaxSnapshotBytes)) {
+    char size[32];
+    std::snprintf(size, sizeof size, "%.4g", bytes);
+    throw InputError("snapshot record declares N=" + std::to_string(N) + ", H=" +
+                     std::to_string(H) + ", W=" + std::to_string(W) + ", E=" + std::to_string(E) +
+                     " (" + size + " bytes), more than the limit of " +
+                     std::to_string(kMaxSnapshotBytes) + " bytes");
+  }
   s.H = H;
   s.W = W;
-  s.poses_cw.resize(N, 7);
-  readArray(in, s.poses_cw.data(), std::size_t(N) * 7, "poses");
-  s.disps.resize(std::size_t(N) * hw);
-  readArray(in, s.disps.data(), s.disps.size(), "disps");
-  readArray(in, s.intrinsics.data(), 4, "intrinsics");
-  s.ii.resize(E);
-  s.jj.resize(E);
-  readArray(in, s.ii.data(), s.ii.size(), "ii");
-  readArray(in, s.jj.data(), s.jj.size(), "jj");
-  s.target.resize(std::size_t(E) * 2 * hw);
-  s.weight.resize(std::size_t(E) * 2 * hw);
-  readArray(in, s.target.data(), s.target.size(), "target");
-  readArray(in, s.weight.data(), s.weight.size(), "weight");
-  s.tstamp.resize(N);
-  readArray(in, s.tstamp.data(), s.tstamp.size(), "tstamp");
-  bool has_times = false, has_id = false;
-  in >> has_times;
-  if (has_times) {
-    s.timestamps_s.emplace(N);
-    readArray(in, s.timestamps_s->data(), s.timestamps_s->size(), "timestamps_s");
-  }
-  in >> has_id;
-  if (has_id) s.id = in.ReadAs<int64_t>();
+  std::vector<double> poses;
+  readArray(in, poses, std::size_t(N) * 7, "poses");
+  s.poses_cw = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 7, Eigen::RowMajor>>(
+      poses.data(), N, 7);
+  readArray(in, s.disps, std::size_t(N) * hw, "disps");
+  std::vector<double> intrinsics;
+  readArray(in, intrinsics, 4, "intrinsics");
+  s.intrinsics = Eigen::Vector4d(intrinsics.data());
+  readArray(in, s.ii, std::size_t(E), "ii");
+  readArray(in, s.jj, std::size_t(E), "jj");
+  readArray(in, s.target, std::size_t(E) * 2 * hw, "target");
+  readArray(in, s.weight, std::size_t(E) * 2 * hw, "weight");
+  readArray(in, s.tstamp, std::size_t(N), "tstamp");
+  if (readFlag(in, "timestamps_s"))
+    readArray(in, s.timestamps_s.emplace(), std::size_t(N), "timestamps_s");
+  if (readFlag(in, "id")) s.id = in.ReadAs<int64_t>();
   s.source = snapshot.source;
   s.index = snapshot.index;
   snapshot = std::move(s);
@@ -111,6 +158,13 @@ void CObservationDbaSnapshot::getDescriptionAsText(std::ostream& o) const {
 
 void registerDbacovMrptClasses() { mrpt::rtti::registerClass(CLASS_ID(CObservationDbaSnapshot)); }
 
-}  // namespace dbacov
+namespace {
+// Registers the class when the library is loaded (also by dlopen, as MRPT's `-p` plugin option
+// does). Not MRPT_INITIALIZER: that is __attribute__((constructor)), whose order relative to this
+// file's C++ initializers is the compiler's choice; clang runs it before runtimeClassId above is
+// initialized, and the class stayed unregistered. C++ initializes the variables of one file in
+// order of definition, so this one runs after IMPLEMENTS_SERIALIZABLE's.
+[[maybe_unused]] const bool kRegistered = (registerDbacovMrptClasses(), true);
+}  // namespace
 
-MRPT_INITIALIZER(dbacov_register_mrpt_classes) { dbacov::registerDbacovMrptClasses(); }
+}  // namespace dbacov

@@ -91,8 +91,12 @@ void writeGraphBinary(const std::string& path, const PoseGraph& graph) {
   {
     mrpt::io::CFileOutputStream out;
     if (!out.open(file.writePath())) throw InputError(path + ": cannot open the temporary output");
-    auto arch = mrpt::serialization::archiveFrom(out);
-    arch << toNetwork(graph);
+    try {
+      auto arch = mrpt::serialization::archiveFrom(out);
+      arch << toNetwork(graph);
+    } catch (const std::exception& e) {  // e.g. disk full
+      throw InputError(path + ": cannot write the graph: " + conciseMrptMessage(e.what()));
+    }
   }
   file.commit();
 }

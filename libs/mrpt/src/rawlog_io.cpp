@@ -1,13 +1,18 @@
 #include "dbacov/mrpt/rawlog_io.h"
 
-#include <mrpt/io/CFileGZInputStream.h>
+#include <filesystem>
+#include <optional>
+
 #include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/io/CMemoryStream.h>
 #include <mrpt/obs/CSensoryFrame.h>
 #include <mrpt/serialization/CArchive.h>
 
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
+#include "gz_input_stream.h"
 #include "mrpt_errors.h"
+#include "object_guard.h"
 
 namespace dbacov::mrpt_bridge {
 
@@ -21,36 +26,81 @@ RawlogWriter::RawlogWriter(const std::string& path)
 RawlogWriter::~RawlogWriter() = default;
 
 void RawlogWriter::write(const mrpt::serialization::CSerializable& object) {
+  if (!failure_.empty()) throw InputError(failure_);
   try {
     auto arch = mrpt::serialization::archiveFrom(*gz_);
     arch << object;
   } catch (const std::exception& e) {
-    throw InputError(path_ + ": writing entry " + std::to_string(count_) + " failed: " + e.what());
+    // The stream may hold part of the entry: nothing more is written, and commit() refuses.
+    failure_ = path_ + ": writing entry " + std::to_string(count_) + " failed: " + e.what();
+    throw InputError(failure_);
   }
   ++count_;
 }
 
 void RawlogWriter::commit() {
+  if (!failure_.empty()) throw InputError(failure_ + " (the rawlog is not written)");
   gz_->close();
   file_->commit();
 }
 
-RawlogReader::RawlogReader(const std::string& path)
-    : path_(path), gz_(std::make_unique<mrpt::io::CFileGZInputStream>()) {
-  if (!gz_->open(path)) throw InputError(path + ": cannot open rawlog for reading");
+RawlogReader::RawlogReader(const std::string& path) : path_(path) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);  // a FIFO or /dev/stdin will do
+  if (ec || std::filesystem::is_directory(status))
+    throw InputError(path + ": cannot open rawlog for reading: " +
+                     (ec ? ec.message() : std::string("it is a directory")));
+  stream_ = std::make_unique<PeekStream>(std::make_unique<GzInputStream>(path));
+}
+
+RawlogReader::RawlogReader(const std::string& name, std::vector<unsigned char> bytes)
+    : path_(name), bytes_(std::move(bytes)) {
+  auto mem = std::make_unique<mrpt::io::CMemoryStream>();
+  mem->assignMemoryNotOwn(bytes_.data(), bytes_.size());
+  stream_ = std::make_unique<PeekStream>(std::move(mem));
 }
 
 RawlogReader::~RawlogReader() = default;
 
-mrpt::serialization::CSerializable::Ptr RawlogReader::next() {
-  auto arch = mrpt::serialization::archiveFrom(*gz_);
-  try {
-    mrpt::serialization::CSerializable::Ptr obj;
-    arch >> obj;
-    ++count_;
-    return obj;
-  } catch (const mrpt::serialization::CExceptionEOF&) {
+void RawlogReader::acceptOnly(std::set<std::string> class_names) {
+  accepted_ = std::move(class_names);
+}
+
+mrpt::serialization::CSerializable::Ptr RawlogReader::readObject(bool in_frame) {
+  const std::optional<ObjectHeader> h = peekObjectHeader(*stream_);
+  if (!h) {
+    if (in_frame) throw InputError("CSensoryFrame truncated");
     return nullptr;
+  }
+  if (h->short_name == "CSensoryFrame") {
+    if (in_frame) throw InputError("a CSensoryFrame inside a CSensoryFrame");
+    // Read here, not by MRPT, whose CSensoryFrame would trust any count.
+    auto frame = mrpt::obs::CSensoryFrame::Create();
+    for (std::uint32_t n = readFrameStart(*stream_, *h); n > 0; --n) {
+      auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(readObject(true));
+      if (!obs) throw InputError("a CSensoryFrame holds an object that is not an observation");
+      frame->insert(obs);
+    }
+    readEndFlag(*stream_, *h);
+    return frame;
+  }
+  if (!accepted_.empty() && !accepted_.count(h->short_name)) {
+    std::string expected;
+    for (const std::string& c : accepted_) expected += (expected.empty() ? "" : ", ") + c;
+    throw InputError("an object of class " + h->class_name + ", expected " + expected +
+                     " (plain or in CSensoryFrames)");
+  }
+  auto arch = mrpt::serialization::archiveFrom(*stream_);
+  mrpt::serialization::CSerializable::Ptr obj;
+  arch >> obj;
+  return obj;
+}
+
+mrpt::serialization::CSerializable::Ptr RawlogReader::next() {
+  try {
+    auto obj = readObject(false);
+    if (obj) ++count_;
+    return obj;
   } catch (const std::exception& e) {
     throw InputError(path_ + ": entry " + std::to_string(count_) +
                      " cannot be read: " + conciseMrptMessage(e.what()));
@@ -58,7 +108,15 @@ mrpt::serialization::CSerializable::Ptr RawlogReader::next() {
 }
 
 RawlogSnapshotReader::RawlogSnapshotReader(const std::string& path, std::int64_t first_index)
-    : path_(path), reader_(path), next_index_(first_index) {}
+    : path_(path), reader_(path), next_index_(first_index) {
+  reader_.acceptOnly({"CObservationDbaSnapshot"});
+}
+
+RawlogSnapshotReader::RawlogSnapshotReader(const std::string& name, std::vector<unsigned char> bytes,
+                                           std::int64_t first_index)
+    : path_(name), reader_(name, std::move(bytes)), next_index_(first_index) {
+  reader_.acceptOnly({"CObservationDbaSnapshot"});
+}
 
 RawlogSnapshotReader::~RawlogSnapshotReader() = default;
 

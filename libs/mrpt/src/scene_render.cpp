@@ -132,9 +132,12 @@ Eigen::Vector2d projectToPicture(const SceneView& view, int width, int height,
   return {0.5 * width + f * v.dot(a.right) / z - 0.5, 0.5 * height - f * v.dot(a.up) / z - 0.5};
 }
 
-void applyView(mrpt::opengl::COpenGLScene& scene, const SceneView& view) {
-  auto vp = scene.getViewport();
-  auto& cam = vp->getCamera();
+namespace {
+
+/// Points `cam` (a camera that renders `scene`) as `view` says and sets the clip distances of the
+/// scene's main viewport.
+void aimCamera(mrpt::opengl::CCamera& cam, mrpt::opengl::COpenGLScene& scene,
+               const SceneView& view) {
   cam.setProjectiveModel(true);
   cam.setProjectiveFOVdeg(static_cast<float>(view.fov_deg));
   cam.setPointingAt(static_cast<float>(view.target.x()), static_cast<float>(view.target.y()),
@@ -142,8 +145,14 @@ void applyView(mrpt::opengl::COpenGLScene& scene, const SceneView& view) {
   cam.setZoomDistance(static_cast<float>(view.distance));
   cam.setAzimuthDegrees(static_cast<float>(view.azimuth_deg));
   cam.setElevationDegrees(static_cast<float>(view.elevation_deg));
-  vp->setViewportClipDistances(static_cast<float>(view.clip_near),
-                               static_cast<float>(view.clip_far));
+  scene.getViewport()->setViewportClipDistances(static_cast<float>(view.clip_near),
+                                                static_cast<float>(view.clip_far));
+}
+
+}  // namespace
+
+void applyView(mrpt::opengl::COpenGLScene& scene, const SceneView& view) {
+  aimCamera(scene.getViewport()->getCamera(), scene, view);
 }
 
 /// The thread that owns the EGL context: runs one job at a time, posted by run().
@@ -218,16 +227,7 @@ SceneRenderer::~SceneRenderer() = default;
 mrpt::img::CImage SceneRenderer::render(mrpt::opengl::COpenGLScene& scene, const SceneView& view) {
   mrpt::img::CImage image;
   worker_->run([&] {
-    auto& cam = worker_->fbo->getCamera(scene);
-    cam.setProjectiveModel(true);
-    cam.setProjectiveFOVdeg(static_cast<float>(view.fov_deg));
-    cam.setPointingAt(static_cast<float>(view.target.x()), static_cast<float>(view.target.y()),
-                      static_cast<float>(view.target.z()));
-    cam.setZoomDistance(static_cast<float>(view.distance));
-    cam.setAzimuthDegrees(static_cast<float>(view.azimuth_deg));
-    cam.setElevationDegrees(static_cast<float>(view.elevation_deg));
-    scene.getViewport()->setViewportClipDistances(static_cast<float>(view.clip_near),
-                                                  static_cast<float>(view.clip_far));
+    aimCamera(worker_->fbo->getCamera(scene), scene, view);
     try {
       worker_->fbo->render_RGB(scene, image);
       releaseGl(scene);
@@ -256,11 +256,16 @@ void saveSceneFile(const mrpt::opengl::COpenGLScene& scene, const std::string& p
   file.commit();
 }
 
-void savePng(const mrpt::img::CImage& image, const std::string& path) {
+std::vector<unsigned char> encodePng(const mrpt::img::CImage& image, const std::string& path) {
   const cv::Mat& m = image.asCvMatRef();  // BGR, as OpenCV expects
   std::vector<unsigned char> png;
   if (m.empty() || !cv::imencode(".png", m, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
     throw InputError(path + ": cannot encode the picture as PNG");
+  return png;
+}
+
+void savePng(const mrpt::img::CImage& image, const std::string& path) {
+  const std::vector<unsigned char> png = encodePng(image, path);
   io::AtomicOutputFile file(path);
   file.write(png.data(), png.size());
   file.commit();

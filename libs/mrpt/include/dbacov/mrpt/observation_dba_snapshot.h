@@ -3,12 +3,15 @@
 // Serialization (version 0): timestamp, sensorLabel, then N, H, W, E as int32, the arrays of
 // SPEC §1 in C order (poses as float64 T_cw, disps/target/weight float32, intrinsics float64,
 // ii/jj int64, tstamp float64), and the optional timestamps_s and id behind a presence flag.
-// Reading refuses declared sizes beyond kMaxSnapshotBytes before allocating and throws on
-// truncated records; value checks (Snapshot::validate) are left to the caller, so that one invalid
-// snapshot does not stop the reading of a rawlog.
+// Reading refuses declared sizes beyond kMaxSnapshotBytes before allocating, grows each array
+// only with the data that really arrives (a record that declares more than the stream holds costs
+// no more memory than what it holds), refuses a sensorLabel longer than 64 KiB and presence flags
+// other than 0/1, and throws InputError on truncated records, naming the array. Value checks
+// (Snapshot::validate) are left to the caller, so that one invalid snapshot does not stop the
+// reading of a rawlog.
 //
 // The class is registered with MRPT's class registry when the shared library libdbacov_mrpt.so
-// is loaded (MRPT_INITIALIZER), so MRPT tools read it as a plugin:
+// is loaded (a static initializer), so MRPT tools read it as a plugin:
 //     rawlog-edit -p libdbacov_mrpt.so --info -i snapshots.rawlog
 #pragma once
 

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <functional>
 #include <memory>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -19,10 +20,12 @@ class AtomicOutputFile;
 }
 namespace mrpt::io {
 class CFileGZOutputStream;
-class CFileGZInputStream;
+class CStream;
 }  // namespace mrpt::io
 
 namespace dbacov::mrpt_bridge {
+
+class PeekStream;
 
 /// Writes serializable objects, one after another, into a gz-compressed rawlog that appears at
 /// `path` only on commit().
@@ -31,23 +34,32 @@ class RawlogWriter {
   /// Throws InputError when the output cannot be created.
   explicit RawlogWriter(const std::string& path);
   ~RawlogWriter();
+  /// Appends `object`. Throws InputError when it cannot be written; after that the writer is
+  /// failed (the stream may hold part of an entry): write() and commit() throw too.
   void write(const mrpt::serialization::CSerializable& object);
   std::size_t count() const { return count_; }
   /// Closes the stream and replaces `path`. Throws InputError on failure.
   void commit();
 
  private:
+  std::string failure_;  ///< set by a failed write()
   std::string path_;
   std::unique_ptr<io::AtomicOutputFile> file_;
   std::unique_ptr<mrpt::io::CFileGZOutputStream> gz_;
   std::size_t count_ = 0;
 };
 
-/// Reads the objects of a rawlog one at a time (constant memory).
+/// Reads the objects of a rawlog one at a time (constant memory), from any readable path (a
+/// gz-compressed or plain file, a FIFO, /dev/stdin). MRPT's deserializers trust the sizes they
+/// read, so the reader looks at each object's header first: it reads CSensoryFrame containers
+/// itself (at most 2^20 observations each, no frame inside a frame) and, after acceptOnly(),
+/// lets MRPT deserialize only the classes named there.
 class RawlogReader {
  public:
   /// Throws InputError when the file cannot be opened.
   explicit RawlogReader(const std::string& path);
+  /// Reads an uncompressed rawlog held in memory (`name` stands for the path in messages).
+  RawlogReader(const std::string& name, std::vector<unsigned char> bytes);
   ~RawlogReader();
   /// The next object, or nullptr at the end of the file. Throws InputError naming the file and
   /// the entry number when an object cannot be read (unknown class, truncated or corrupt data);
@@ -55,24 +67,38 @@ class RawlogReader {
   mrpt::serialization::CSerializable::Ptr next();
   /// Number of objects read so far.
   std::size_t count() const { return count_; }
+  /// Classes (names without namespace) whose objects may be read, alone or in CSensoryFrames;
+  /// next() refuses any other with InputError. Empty (the default): every registered class.
+  void acceptOnly(std::set<std::string> class_names);
 
  private:
+  mrpt::serialization::CSerializable::Ptr readObject(bool in_frame);
+
   std::string path_;
-  std::unique_ptr<mrpt::io::CFileGZInputStream> gz_;
+  std::vector<unsigned char> bytes_;  ///< the rawlog, when read from memory
+  std::unique_ptr<PeekStream> stream_;
+  std::set<std::string> accepted_;
   std::size_t count_ = 0;
 };
 
-/// The DBA snapshots of a rawlog (directly, or inside a CSensoryFrame), one at a time; objects of
-/// other classes are skipped.
+/// The DBA snapshots of a rawlog (directly, or inside a CSensoryFrame), one at a time. Objects of
+/// other classes are refused (InputError naming the entry and class) rather than deserialized:
+/// snapshot rawlogs (droid2rawlog, simul-dba --rawlog) hold nothing else, and MRPT's
+/// deserializers would trust whatever sizes a damaged file declares.
 class RawlogSnapshotReader {
  public:
   /// Throws InputError when the file cannot be opened.
   RawlogSnapshotReader(const std::string& path, std::int64_t first_index);
+  /// Reads the snapshots of an uncompressed rawlog held in memory (see RawlogReader).
+  RawlogSnapshotReader(const std::string& name, std::vector<unsigned char> bytes,
+                       std::int64_t first_index);
   ~RawlogSnapshotReader();
   /// The next snapshot, with `source` = "<path>#<entry>" and `index` = first_index + count;
   /// false at the end. Values are not validated (Snapshot::validate is the caller's, so that one
   /// invalid snapshot does not end the file). Throws InputError as RawlogReader::next() does.
   bool next(Snapshot* out);
+  /// Objects read so far (snapshots and objects of other classes).
+  std::size_t objectsRead() const { return reader_.count(); }
 
  private:
   std::string path_;

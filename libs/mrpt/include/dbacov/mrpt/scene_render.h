@@ -16,6 +16,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <mrpt/img/CImage.h>
 #include <mrpt/opengl/COpenGLScene.h>
@@ -83,5 +84,7 @@ void saveSceneFile(const mrpt::opengl::COpenGLScene& scene, const std::string& p
 
 /// Writes an image as PNG atomically (the extension of `path` does not matter). Throws InputError.
 void savePng(const mrpt::img::CImage& image, const std::string& path);
+/// The PNG file of an image, in memory. Throws InputError naming `path` (the file it is meant for).
+std::vector<unsigned char> encodePng(const mrpt::img::CImage& image, const std::string& path);
 
 }  // namespace dbacov::mrpt_bridge

@@ -1,0 +1,37 @@
+// Private to dbacov_mrpt: an MRPT input stream over zlib's gzread, for rawlogs.
+//
+// mrpt::io::CFileGZInputStream asks the file system for the file's size when it opens it, which
+// throws for a FIFO or /dev/stdin; this stream reads any readable path (gz-compressed or plain,
+// zlib detects which) and never seeks. Read() returns the bytes read, 0 at the end of the data,
+// and (size_t)-1 on a read error (damaged compressed data), as CFileGZInputStream does.
+#pragma once
+
+#include <string>
+
+#include <mrpt/io/CStream.h>
+
+struct gzFile_s;
+
+namespace dbacov::mrpt_bridge {
+
+class GzInputStream : public mrpt::io::CStream {
+ public:
+  /// Opens `path`; throws InputError naming it (and the system's reason) when it cannot.
+  explicit GzInputStream(const std::string& path);
+  ~GzInputStream() override;
+  GzInputStream(const GzInputStream&) = delete;
+  GzInputStream& operator=(const GzInputStream&) = delete;
+
+  size_t Read(void* buffer, size_t count) override;
+  size_t Write(const void* buffer, size_t count) override;
+  uint64_t Seek(int64_t offset, TSeekOrigin origin) override;
+  uint64_t getTotalBytesCount() const override { return 0; }  ///< unknown (may be a pipe)
+  uint64_t getPosition() const override;
+  std::string getStreamDescription() const override { return "rawlog " + path_; }
+
+ private:
+  std::string path_;
+  gzFile_s* gz_ = nullptr;
+};
+
+}  // namespace dbacov::mrpt_bridge
