@@ -8,11 +8,13 @@
 #include "dbacov/app/outputs.h"
 #include "dbacov/app/pipeline.h"
 #include "dbacov/app/progress.h"
+#include "dbacov/app/run_summary.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/parallel.h"
 #include "dbacov/mrpt/rawlog_io.h"
 #include "visual_cli.h"
+#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {
@@ -46,13 +48,14 @@ Conventions (README.md has the details):
   text loader (which drops rotation-rotation off-diagonal information); .g2o uses g2o's order
   and its quaternion-vector error (rotation information x4). dba-posegraph optimizes it.
   All outputs are written atomically (temporary file, then rename).)";
-constexpr const char* kExitStatus = R"(
-Exit status: 0 success, 1 when any snapshot or output failed (the others are still written),
-2 on bad usage.)";
-
-struct Summary {
-  std::size_t read = 0, processed = 0, failed = 0;
-};
+constexpr const char* kExitStatus = R"TXT(
+Failures: a snapshot that cannot be read, is invalid, has no covariances (numerical) or whose
+results cannot be written is reported with its file, snapshot, key, keyframe or edge. With
+--keep-going (the default) the other snapshots are still processed and every output is written;
+with --fail-fast the first failure stops the run and no output is written at all (previous files
+stay as they were). The last line on standard error sums up: "N snapshots read, P processed,
+F failed: K invalid input (files...), K numerical (file: reason), K output (...)".
+Exit status: 0 success, 1 when any snapshot or output failed, 2 on bad usage.)TXT";
 
 }  // namespace
 
@@ -130,32 +133,26 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   cli.add_option("--threads", opt.threads, "Threads for independent snapshots and for each snapshot's linearization (0 = all cores)")
       ->check(CLI::Range(0, 4096));
   cli.add_flag("-q,--quiet", opt.quiet, "No progress display and no summary line");
+  bool fail_fast = false;
+  detail::addFailurePolicyOptions(cli, fail_fast);
   detail::addVisualOptions(cli, visual);
 
-  try {
-    cli.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      out << cli.help();
-      return 0;
-    }
-    err << "dba-covariance: " << e.what() << "\n" << "Run with --help for usage.\n";
-    return 2;
-  }
   DbaOptions engine;
   try {
+    cli.parse(argc, argv);
     engine = opt.engineOptions();
     detail::finishVisualOptions(visual);
     if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
         opt.rawlog_path.empty() && opt.graph_prefix.empty() && !visual.any())
       throw std::invalid_argument("no output requested: give -o, --csv, --relative-csv, "
                                   "--depth-sigma, --graph, --scene, --snapshot or --plots");
-  } catch (const std::invalid_argument& e) {
-    err << "dba-covariance: " << e.what() << "\nRun with --help for usage.\n";
-    return 2;
+  } catch (...) {
+    return detail::usageExitStatus(cli, "dba-covariance", out, err);
   }
 
-  Summary sum;
+  RunSummary sum;
+  const FailurePolicy policy = fail_fast ? FailurePolicy::FailFast : FailurePolicy::KeepGoing;
+  bool output_failed = false;
   const ThreadLimit thread_limit(opt.threads);
   try {
     const SnapshotInputs inputs(opt.inputs);
@@ -178,54 +175,78 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
     for (const auto& sink : sinks) solver.depth_variances |= sink->needsDepthVariances();
 
     Progress progress(err, inputs.knownCount(), !opt.quiet);
-    auto report = [&](const std::string& what) {
+    // `what` is the whole message (it names the file/snapshot), `reason` the error alone.
+    // Returns whether the run goes on (false under --fail-fast).
+    auto report = [&](FailureKind kind, const std::string& source, const std::string& what,
+                      const std::string& reason) {
       progress.clear();
       err << "dba-covariance: error: " << what << '\n';
-      ++sum.failed;
+      sum.fail(kind, source, reason);
+      return policy == FailurePolicy::KeepGoing;
     };
     // Snapshots are independent: compute them in parallel, hand the results to the sinks in order.
     SnapshotStream stream(inputs);
     auto name = [](const Snapshot& s) {
       return s.source + " (snapshot " + std::to_string(s.label()) + ")";
     };
-    runSnapshotPipeline(
-        stream, 2 * std::max<std::size_t>(1, currentThreadLimit()),
-        [&](PipelineItem& item) {
-          Snapshot& s = item.input.snapshot;
-          try {
-            if (opt.fps) deriveKeyframeTimes(s, *opt.fps);
-            for (const auto& sink : sinks) sink->check(s);
-            item.cov = std::make_unique<DbaCovariance>(s, engine, solver);
-          } catch (const std::exception& e) {
-            item.error = name(s) + ": " + e.what();
-          }
-        },
-        [&](PipelineItem& item) {
-          ++sum.read;
-          if (!item.input.ok()) return report(item.input.error);
-          const Snapshot& s = item.input.snapshot;
-          progress.step(s.source);
-          if (!item.cov) return report(item.error);
-          try {
-            for (const auto& sink : sinks) sink->add(s, *item.cov);
-            ++sum.processed;
-          } catch (const std::exception& e) {
-            report(name(s) + ": " + e.what());
-          }
-        });
+    {
+      runSnapshotPipeline(
+          stream, 2 * std::max<std::size_t>(1, currentThreadLimit()),
+          [&](PipelineItem& item) {
+            Snapshot& s = item.input.snapshot;
+            try {
+              if (opt.fps) deriveKeyframeTimes(s, *opt.fps);
+              for (const auto& sink : sinks) sink->check(s);
+              item.cov = std::make_unique<DbaCovariance>(s, engine, solver);
+            } catch (const std::exception& e) {
+              item.error = e.what();
+              item.error_kind = classifyFailure(e, false);
+            }
+          },
+          [&](PipelineItem& item) {
+            ++sum.read;
+            if (!item.input.ok())
+              return report(item.input.kind, item.input.source, item.input.error, item.input.error);
+            const Snapshot& s = item.input.snapshot;
+            progress.step(s.source);
+            if (!item.cov)
+              return report(item.error_kind, s.source, name(s) + ": " + item.error, item.error);
+            try {
+              for (const auto& sink : sinks) sink->add(s, *item.cov);
+              ++sum.processed;
+            } catch (const std::exception& e) {
+              return report(classifyFailure(e, true), s.source, name(s) + ": " + e.what(), e.what());
+            }
+            return true;
+          });
+      // After a --fail-fast stop the sinks are destroyed uncommitted: no output appears.
+    }
     progress.clear();
-    for (const auto& sink : sinks) sink->commit();
-    if (graph && graph->uninformativePairs() && !opt.quiet)
-      err << "dba-covariance: note: " << graph->uninformativePairs()
-          << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative pose\n";
+    if (policy == FailurePolicy::KeepGoing || sum.failed() == 0) {
+      // Every output is committed even when another one fails.
+      for (const auto& sink : sinks) {
+        try {
+          sink->commit();
+        } catch (const std::exception& e) {
+          err << "dba-covariance: error: " << e.what() << '\n';
+          output_failed = true;
+        }
+      }
+      if (graph && graph->uninformativePairs() && !opt.quiet)
+        err << "dba-covariance: note: " << graph->uninformativePairs()
+            << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative pose\n";
+    }
   } catch (const std::exception& e) {
     err << "dba-covariance: error: " << e.what() << '\n';
     return 1;
   }
-  if (!opt.quiet)
-    err << "dba-covariance: " << sum.read << " snapshots read, " << sum.processed << " processed, "
-        << sum.failed << " failed\n";
-  return sum.failed ? 1 : 0;
+  if (!opt.quiet) {
+    err << "dba-covariance: " << sum.line();
+    if (policy == FailurePolicy::FailFast && sum.failed())
+      err << "; --fail-fast: stopped at the first failure, no output written";
+    err << '\n';
+  }
+  return sum.failed() || output_failed ? 1 : 0;
 }
 
 }  // namespace dbacov::app

@@ -5,10 +5,12 @@
 
 #include <CLI/CLI.hpp>
 
+#include "dbacov/app/run_summary.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/reprojection.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {
@@ -37,7 +39,7 @@ int runDroid2RawlogApp(int argc, const char* const* argv, std::ostream& out, std
   std::optional<double> fps;
   bool quiet = false;
   CLI::App cli{"droid2rawlog: DROID-SLAM DBA snapshots (.npz) to an MRPT rawlog", "droid2rawlog"};
-  cli.footer(R"(
+  cli.footer(R"TXT(
 Writes a gz-compressed, observations-only rawlog with one dbacov::CObservationDbaSnapshot per
 snapshot (every array of the .npz, timestamp and sensorLabel). Inputs: .npz files or directories
 of them (name order), or rawlogs of snapshots. The observation's timestamp is the time of the
@@ -45,7 +47,11 @@ snapshot's newest graph keyframe; keyframe times come from 'timestamps_s' when p
 tstamp / --fps (and are then stored in the rawlog). MRPT tools read the class with the plugin:
   rawlog-edit -p libdbacov_mrpt.so --info -i snapshots.rawlog
 --info FILE... prints one line per snapshot instead of converting.
-Exit status: 0 success, 1 when any input failed (the others are still written), 2 on bad usage.)");
+Failures: with --keep-going (the default) a snapshot that cannot be read or is invalid is
+reported and the others are still converted and written; with --fail-fast the first failure stops
+the run and the output rawlog is not written at all (a previous file stays as it was). The last
+line on standard error sums up: "N snapshots read, P processed, F failed: K invalid input (...)".
+Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
   auto* in_opt = cli.add_option("-i,--input", inputs, "Snapshot .npz, directory of them, or rawlog; repeatable");
   auto* out_opt = cli.add_option("-o,--output", output, "Output rawlog");
   auto* info_opt = cli.add_option("--info", info, "Summarize snapshot files or rawlogs instead of converting");
@@ -53,64 +59,80 @@ Exit status: 0 success, 1 when any input failed (the others are still written), 
       ->check(CLI::PositiveNumber);
   cli.add_option("--label", label, "sensorLabel of the snapshot observations");
   cli.add_flag("-q,--quiet", quiet, "No summary line");
+  bool fail_fast = false;
+  detail::addFailurePolicyOptions(cli, fail_fast);
   in_opt->excludes(info_opt);
   out_opt->excludes(info_opt);
   try {
     cli.parse(argc, argv);
     if (info.empty() && (inputs.empty() || output.empty()))
       throw CLI::ValidationError("give -i INPUT... -o OUTPUT.rawlog, or --info FILE...");
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      out << cli.help();
-      return 0;
-    }
-    err << "droid2rawlog: " << e.what() << "\nRun with --help for usage.\n";
-    return 2;
+  } catch (...) {
+    return detail::usageExitStatus(cli, "droid2rawlog", out, err);
   }
 
-  std::size_t ok = 0, failed = 0;
-  auto report = [&](const std::string& what) {
+  RunSummary sum;
+  auto report = [&](FailureKind kind, const std::string& source, const std::string& what) {
     err << "droid2rawlog: error: " << what << '\n';
-    ++failed;
+    sum.fail(kind, source, what);
+    if (fail_fast) throw FailFastStop{};
+  };
+  auto on_error = [&](const SnapshotItem& item) {
+    ++sum.read;
+    report(item.kind, item.source, item.error);
   };
   try {
     if (!info.empty()) {
-      SnapshotInputs(info).forEach(
-          [&](Snapshot& s) {
-            printSummary(out, s);
-            ++ok;
-          },
-          report);
-      return failed ? 1 : 0;
+      try {
+        SnapshotInputs(info).forEach(
+            [&](Snapshot& s) {
+              ++sum.read;
+              printSummary(out, s);
+              ++sum.processed;
+            },
+            on_error);
+      } catch (const FailFastStop&) {
+      }
+      if (!quiet) err << "droid2rawlog: " << sum.line() << '\n';
+      return sum.failed() ? 1 : 0;
     }
     const SnapshotInputs in(inputs);
     mrpt_bridge::RawlogWriter writer(output);
-    in.forEach(
-        [&](Snapshot& s) {
-          const std::string name = s.source + " (snapshot " + std::to_string(s.label()) + ")";
-          try {
-            if (fps) deriveKeyframeTimes(s, *fps);
+    try {
+      in.forEach(
+          [&](Snapshot& s) {
+            ++sum.read;
             CObservationDbaSnapshot obs;
-            obs.timestamp = mrpt::Clock::fromDouble(
-                keyframeTime(s, newestKeyframe(s)));
+            try {
+              if (fps) deriveKeyframeTimes(s, *fps);
+              obs.timestamp = mrpt::Clock::fromDouble(keyframeTime(s, newestKeyframe(s)));
+            } catch (const std::exception& e) {
+              return report(classifyFailure(e, false), s.source,
+                            s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what());
+            }
             obs.sensorLabel = label;
             obs.snapshot = std::move(s);
-            writer.write(obs);
-            ++ok;
-          } catch (const std::exception& e) {
-            report(name + ": " + e.what());
-          }
-        },
-        report);
-    writer.commit();
+            writer.write(obs);  // a write error ends the run: the rawlog would be damaged
+            ++sum.processed;
+          },
+          on_error);
+    } catch (const FailFastStop&) {
+      // Reported already; the writer is destroyed uncommitted: the output does not appear.
+    }
+    if (!fail_fast || sum.failed() == 0) writer.commit();
   } catch (const std::exception& e) {
     err << "droid2rawlog: error: " << e.what() << '\n';
     return 1;
   }
-  if (!quiet)
-    err << "droid2rawlog: " << ok << " snapshots written to " << output << ", " << failed
-        << " failed\n";
-  return failed ? 1 : 0;
+  if (!quiet) {
+    err << "droid2rawlog: " << sum.line();
+    if (fail_fast && sum.failed())
+      err << "; --fail-fast: stopped at the first failure, " << output << " not written";
+    else
+      err << "; " << sum.processed << " written to " << output;
+    err << '\n';
+  }
+  return sum.failed() ? 1 : 0;
 }
 
 }  // namespace dbacov::app

@@ -11,6 +11,7 @@
 #include "dbacov/app/scenario_options.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/monte_carlo.h"
+#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {
@@ -227,16 +228,8 @@ int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::os
     if (o.calibration_runs > 0 && o.inflation)
       throw std::invalid_argument("give either --calibration-runs or --inflation");
     if (o.monte_carlo > 0) config = o.scenario.resolve();
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      out << cli.help();
-      return 0;
-    }
-    err << "dba-evaluate: " << e.what() << "\nRun with --help for usage.\n";
-    return 2;
-  } catch (const std::exception& e) {
-    err << "dba-evaluate: " << e.what() << "\nRun with --help for usage.\n";
-    return 2;
+  } catch (...) {
+    return detail::usageExitStatus(cli, "dba-evaluate", out, err);
   }
 
   bool failed = false;

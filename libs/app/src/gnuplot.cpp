@@ -2,12 +2,12 @@
 
 #include <fcntl.h>
 #include <spawn.h>
-#include <stdlib.h>
+#include <sys/mman.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cerrno>
-#include <filesystem>
-#include <fstream>
+#include <cstring>
 #include <sstream>
 #include <vector>
 
@@ -18,9 +18,9 @@ extern char** environ;
 namespace dbacov::app::detail {
 namespace {
 
-/// The last `n` lines of a text file.
-std::string tail(const std::string& path, std::size_t n) {
-  std::ifstream in(path);
+/// The last `n` non-empty lines of `text`, joined by " | ".
+std::string tail(const std::string& text, std::size_t n) {
+  std::istringstream in(text);
   std::vector<std::string> lines;
   for (std::string l; std::getline(in, l);)
     if (!l.empty()) lines.push_back(l);
@@ -30,14 +30,16 @@ std::string tail(const std::string& path, std::size_t n) {
   return out;
 }
 
-/// Runs gnuplot with `args`, stdout and stderr to `log`; returns its exit status (127: not
-/// started).
-int spawnGnuplot(const std::vector<std::string>& args, const std::string& log) {
+/// Runs gnuplot with `args`, stdout and stderr to `log_fd`, the descriptors `inherit` kept open
+/// under the same numbers; returns its exit status (127: not started).
+int spawnGnuplot(const std::vector<std::string>& args, int log_fd, const std::vector<int>& inherit) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  posix_spawn_file_actions_adddup2(&actions, log_fd, 1);
+  posix_spawn_file_actions_adddup2(&actions, log_fd, 2);
+  // dup2 onto the same number clears FD_CLOEXEC in the child (POSIX; glibc >= 2.29).
+  for (int fd : inherit) posix_spawn_file_actions_adddup2(&actions, fd, fd);
   std::vector<char*> argv;
   std::vector<std::string> storage{"gnuplot"};
   storage.insert(storage.end(), args.begin(), args.end());
@@ -55,33 +57,48 @@ int spawnGnuplot(const std::vector<std::string>& args, const std::string& log) {
 
 }  // namespace
 
-ScratchDir::ScratchDir() {
-  std::string templ = (std::filesystem::temp_directory_path() / "dbacov_plots.XXXXXX").string();
-  if (!::mkdtemp(templ.data()))
-    throw InputError(templ + ": cannot create a scratch directory for the figures");
-  path_ = templ;
+MemFile::MemFile(const std::string& name) {
+  fd_ = ::memfd_create(("dbacov_" + name).c_str(), MFD_CLOEXEC);
+  if (fd_ < 0)
+    throw InputError("cannot create the in-memory file '" + name + "' for gnuplot: " +
+                     std::strerror(errno));
 }
 
-ScratchDir::~ScratchDir() {
-  std::error_code ec;
-  std::filesystem::remove_all(path_, ec);
+MemFile::~MemFile() {
+  if (fd_ >= 0) ::close(fd_);
 }
 
-void runGnuplot(const std::string& script, const std::string& log, const std::string& what) {
-  const int rc = spawnGnuplot({script}, log);
+std::string MemFile::path() const { return "/proc/self/fd/" + std::to_string(fd_); }
+
+std::string MemFile::contents() const {
+  std::string text;
+  char buf[4096];
+  for (off_t at = 0;;) {
+    const ssize_t n = ::pread(fd_, buf, sizeof buf, at);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+    at += n;
+  }
+  return text;
+}
+
+void runGnuplot(const std::string& script, const MemFile& log, const std::vector<int>& inherit,
+                const std::string& what) {
+  const int rc = spawnGnuplot({script}, log.fd(), inherit);
   if (rc == 127) throw InputError(what + ": cannot run gnuplot (Debian package gnuplot-nox)");
   if (rc != 0)
     throw InputError(what + ": gnuplot failed (status " + std::to_string(rc) +
-                     "): " + tail(log, 4));
+                     "): " + tail(log.contents(), 4));
 }
 
 void requireGnuplot() {
-  ScratchDir scratch;
-  const int rc = spawnGnuplot({"-e", "set terminal pngcairo"}, scratch.file("probe.log"));
+  const MemFile log("probe.log");
+  const int rc = spawnGnuplot({"-e", "set terminal pngcairo"}, log.fd(), {});
   if (rc != 0)
     throw InputError(
         "--plots needs gnuplot with the pngcairo terminal (Debian package gnuplot-nox): " +
-        (rc == 127 ? std::string("gnuplot not found") : tail(scratch.file("probe.log"), 2)));
+        (rc == 127 ? std::string("gnuplot not found") : tail(log.contents(), 2)));
 }
 
 std::string gnuplotQuote(const std::string& s) {

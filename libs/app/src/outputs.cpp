@@ -1,5 +1,10 @@
 #include "dbacov/app/outputs.h"
 
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 
 #include "dbacov/app/csv_format.h"
@@ -59,19 +64,50 @@ void RelativeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
          << upperTriangleValues(cov.relative(a, b)) << '\n';
 }
 
-DepthSigmaSink::DepthSigmaSink(const std::string& dir) : dir_(dir) {
+std::string checkOutputDirectory(const std::string& dir, const std::string& what) {
+  namespace fs = std::filesystem;
   std::error_code ec;
-  std::filesystem::create_directories(dir_, ec);
-  if (ec || !std::filesystem::is_directory(dir_))
-    throw InputError(dir_ + ": cannot create the depth-sigma directory" + (ec ? ": " + ec.message() : ""));
+  fs::path p = fs::absolute(fs::path(dir.empty() ? "." : dir), ec);
+  if (ec) throw InputError(dir + ": cannot use as the " + what + ": " + ec.message());
+  // The directory itself, or the nearest ancestor that exists.
+  while (!fs::exists(p, ec) && p.has_parent_path() && p.parent_path() != p) p = p.parent_path();
+  if (!fs::is_directory(p, ec))
+    throw InputError(dir + ": cannot use as the " + what + ": " + p.string() +
+                     " exists and is not a directory");
+  // Creating (and removing) a temporary file checks that files can be made there.
+  std::string probe = p.string() + "/.dbacov_probe.XXXXXX";
+  const int fd = ::mkstemp(probe.data());
+  if (fd < 0)
+    throw InputError(dir + ": cannot use as the " + what + ": cannot create files in '" +
+                     p.string() + "': " + std::strerror(errno));
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return p.string();
 }
+
+void createOutputDirectory(const std::string& dir, const std::string& what) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec || !std::filesystem::is_directory(dir))
+    throw InputError(dir + ": cannot create the " + what + (ec ? ": " + ec.message() : ""));
+}
+
+DepthSigmaSink::DepthSigmaSink(const std::string& dir)
+    : dir_(dir),
+      files_(std::make_unique<io::DeferredFiles>(checkOutputDirectory(dir, "depth-sigma directory"))) {}
+
+DepthSigmaSink::~DepthSigmaSink() = default;
 
 void DepthSigmaSink::add(const Snapshot& s, const DbaCovariance& cov) {
   const std::size_t H = s.H, W = s.W;
   for (int k : cov.sourceKeyframes())
-    io::writeNpyFileAtomically(
-        dir_ + "/" + std::to_string(s.label()) + "_" + std::to_string(k) + ".npy",
-        io::makeNpy(cov.inverseDepthSigma(k), {H, W}));
+    files_->add(dir_ + "/" + std::to_string(s.label()) + "_" + std::to_string(k) + ".npy",
+                io::serializeNpy(io::makeNpy(cov.inverseDepthSigma(k), {H, W})));
+}
+
+void DepthSigmaSink::commit() {
+  createOutputDirectory(dir_, "depth-sigma directory");
+  files_->commit();
 }
 
 EmitMode parseEmitMode(const std::string& name) {

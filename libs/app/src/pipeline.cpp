@@ -1,31 +1,57 @@
 #include "dbacov/app/pipeline.h"
 
+#include <atomic>
+#include <exception>
+#include <mutex>
+
 #include <tbb/parallel_pipeline.h>
 
 namespace dbacov::app {
 
 void runSnapshotPipeline(SnapshotStream& stream, std::size_t in_flight,
                          const std::function<void(PipelineItem&)>& compute,
-                         const std::function<void(PipelineItem&)>& consume) {
+                         const std::function<bool(PipelineItem&)>& consume) {
   using Ptr = std::shared_ptr<PipelineItem>;
+  // No exception may leave a filter: TBB would cancel the pipeline and drop (leak) the items in
+  // flight. A failure stops the pipeline instead, and is rethrown once it has drained.
+  std::atomic<bool> stop{false};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  auto fail = [&] {
+    const std::lock_guard<std::mutex> lock(failure_mutex);
+    if (!failure) failure = std::current_exception();
+    stop = true;
+  };
   tbb::parallel_pipeline(
       std::max<std::size_t>(1, in_flight),
       tbb::make_filter<void, Ptr>(tbb::filter_mode::serial_in_order,
                                   [&](tbb::flow_control& fc) -> Ptr {
                                     auto item = std::make_shared<PipelineItem>();
-                                    if (!stream.next(&item->input)) {
-                                      fc.stop();
-                                      return nullptr;
+                                    try {
+                                      if (!stop && stream.next(&item->input)) return item;
+                                    } catch (...) {
+                                      fail();
                                     }
-                                    return item;
+                                    fc.stop();
+                                    return nullptr;
                                   }) &
           tbb::make_filter<Ptr, Ptr>(tbb::filter_mode::parallel,
                                      [&](Ptr item) {
-                                       if (item->input.ok()) compute(*item);
+                                       try {
+                                         if (!stop && item->input.ok()) compute(*item);
+                                       } catch (...) {
+                                         fail();
+                                       }
                                        return item;
                                      }) &
-          tbb::make_filter<Ptr, void>(tbb::filter_mode::serial_in_order,
-                                      [&](Ptr item) { consume(*item); }));
+          tbb::make_filter<Ptr, void>(tbb::filter_mode::serial_in_order, [&](Ptr item) {
+            try {
+              if (!stop && !consume(*item)) stop = true;
+            } catch (...) {
+              fail();
+            }
+          }));
+  if (failure) std::rethrow_exception(failure);
 }
 
 }  // namespace dbacov::app

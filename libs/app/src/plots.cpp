@@ -17,6 +17,7 @@ namespace {
 using detail::gnuplotQuote;
 
 constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr std::size_t kFiguresPerBatch = 100;  ///< figures per gnuplot run
 
 /// One keyframe's plotted values.
 struct Row {
@@ -205,22 +206,28 @@ void writeSequencePlots(const SequenceHistory& h, const std::map<double, DepthMa
   const bool times = h.hasTimes();
   const std::vector<Row> rows = plotRows(kfs, times);
 
-  detail::FigureBatch batch;
+  auto batch = std::make_unique<detail::FigureBatch>();
   if (!rows.empty()) {
-    covarianceFigure(batch, h, rows, times, dir + "/covariance_covisibility.png");
-    sigmaFigure(batch, h, rows, times, dir + "/pose_sigmas.png");
+    covarianceFigure(*batch, h, rows, times, dir + "/covariance_covisibility.png");
+    sigmaFigure(*batch, h, rows, times, dir + "/pose_sigmas.png");
   }
   if (!maps.empty()) {
     const std::string maps_dir = dir + "/depth_sigma";
     std::filesystem::create_directories(maps_dir, ec);
     if (ec) throw InputError(maps_dir + ": cannot create the directory: " + ec.message());
     int n = 0;
-    for (const auto& [tstamp, m] : maps)
+    for (const auto& [tstamp, m] : maps) {
       detail::depthFigure(
-          batch, m, tstamp, n++,
+          *batch, m, tstamp, n++,
           maps_dir + "/" + std::to_string(m.snapshot) + "_" + std::to_string(m.keyframe) + ".png");
+      // A figure holds three descriptors until its batch runs: stay far below the usual 1024.
+      if (batch->numOutputs() >= kFiguresPerBatch) {
+        batch->run("--plots " + dir);
+        batch = std::make_unique<detail::FigureBatch>();
+      }
+    }
   }
-  batch.run("--plots " + dir);
+  batch->run("--plots " + dir);
   writeKeyframesCsv(rows, dir + "/keyframes.csv");
 }
 

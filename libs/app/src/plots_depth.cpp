@@ -74,21 +74,29 @@ std::string timeLabel(bool times) {
                : "keyframe time stamp (DROID tstamp: image index)";
 }
 
+std::string FigureBatch::data(const std::string& name) {
+  auto& file = data_[name];
+  if (!file) file = std::make_unique<MemFile>(name);
+  return file->path();
+}
+
 std::string FigureBatch::output(const std::string& final_path) {
-  outputs_.push_back(
-      std::make_unique<io::AtomicOutputFile>(final_path, io::AtomicOutputFile::TempKind::kNamed));
+  outputs_.push_back(std::make_unique<io::AtomicOutputFile>(final_path));
   return gnuplotQuote(outputs_.back()->writePath());
 }
 
 void FigureBatch::run(const std::string& what) {
   if (outputs_.empty()) return;
-  const std::string script = scratch_.file("figures.gp");
+  const MemFile script("figures.gp"), log("gnuplot.log");
   {
-    std::ofstream os(script);
+    std::ofstream os(script.path());
     os << "set encoding utf8\n" << script_.str();
-    if (!os.flush()) throw InputError(script + ": cannot write the gnuplot script");
+    if (!os.flush()) throw InputError(what + ": cannot write the gnuplot script");
   }
-  runGnuplot(script, scratch_.file("gnuplot.log"), what);
+  std::vector<int> inherit{script.fd()};
+  for (const auto& [name, file] : data_) inherit.push_back(file->fd());
+  for (const auto& out : outputs_) inherit.push_back(out->fd());
+  runGnuplot(script.path(), log, inherit, what);
   for (const auto& out : outputs_) {
     struct stat st {};
     if (::fstat(out->fd(), &st) != 0 || st.st_size == 0)

@@ -1,6 +1,7 @@
 // Private parts of the figures (--plots): a batch of gnuplot figures and the depth-map figure.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -12,21 +13,24 @@
 
 namespace dbacov::app::detail {
 
-/// Figures drawn by one gnuplot run: data files in a scratch directory, one script, and the PNGs
-/// as named temporaries beside their final paths, committed together after gnuplot succeeded.
+/// Figures drawn by one gnuplot run: data files and script in memory (MemFile), and the PNGs in
+/// the unnamed temporaries of AtomicOutputFiles, committed together after gnuplot succeeded.
+/// Every figure holds a few descriptors until run(): keep a batch to about a hundred figures.
 class FigureBatch {
  public:
-  /// Path of a data file in the scratch directory.
-  std::string data(const std::string& name) const { return scratch_.file(name); }
+  /// Path of the data file `name` (created empty at the first call), for std::ofstream and for
+  /// gnuplot's script.
+  std::string data(const std::string& name);
   std::ostream& script() { return script_; }
   /// Creates the temporary for `final_path`; returns it quoted for gnuplot's `set output`.
   std::string output(const std::string& final_path);
+  std::size_t numOutputs() const { return outputs_.size(); }
   /// Runs gnuplot (if there is any figure) and commits every output. Throws InputError naming
   /// `what` on failure; then no output is committed.
   void run(const std::string& what);
 
  private:
-  ScratchDir scratch_;
+  std::map<std::string, std::unique_ptr<MemFile>> data_;
   std::ostringstream script_;
   std::vector<std::unique_ptr<io::AtomicOutputFile>> outputs_;
 };

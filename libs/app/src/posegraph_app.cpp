@@ -14,6 +14,7 @@
 #include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/pose_graph_io.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {
@@ -117,13 +118,8 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
     cli.parse(argc, argv);
     if (rawlog_path.empty() && tum_path.empty())
       throw CLI::ValidationError("no output requested: give -o OUT.rawlog and/or --tum OUT.tum");
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      out << cli.help();
-      return 0;
-    }
-    err << "dba-posegraph: " << e.what() << "\nRun with --help for usage.\n";
-    return 2;
+  } catch (...) {
+    return detail::usageExitStatus(cli, "dba-posegraph", out, err);
   }
 
   try {

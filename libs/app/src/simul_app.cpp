@@ -15,6 +15,7 @@
 #include "dbacov/mrpt/rawlog_io.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/scenario_json.h"
+#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {
@@ -70,16 +71,8 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
     config = scenario.resolve();
     if (no_npz && rawlog_path.empty())
       throw std::invalid_argument("--no-npz leaves no snapshot output: add --rawlog");
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      out << cli.help();
-      return 0;
-    }
-    err << "simul-dba: " << e.what() << "\nRun with --help for usage.\n";
-    return 2;
-  } catch (const std::exception& e) {
-    err << "simul-dba: " << e.what() << "\nRun with --help for usage.\n";
-    return 2;
+  } catch (...) {
+    return detail::usageExitStatus(cli, "simul-dba", out, err);
   }
 
   int written = 0, failed = 0, not_converged = 0, max_iterations = 0;

@@ -12,38 +12,51 @@ namespace fs = std::filesystem;
 bool isRawlogPath(const std::string& path) { return fs::path(path).extension() == ".rawlog"; }
 
 SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {
+  bool usable = false;
   for (const std::string& p : paths) {
     std::error_code ec;
     const fs::file_status st = fs::status(p, ec);
-    if (ec || !fs::exists(st)) throw InputError(p + ": no such file or directory");
-    if (fs::is_directory(st)) {
-      const std::vector<std::string> found = io::listNpzFiles(p);
-      if (found.empty()) throw InputError(p + ": directory holds no .npz snapshot");
-      files_.insert(files_.end(), found.begin(), found.end());
+    std::string problem;
+    if (ec || !fs::exists(st)) {
+      problem = p + ": no such file or directory";
+    } else if (fs::is_directory(st)) {
+      try {
+        const std::vector<std::string> found = io::listNpzFiles(p);
+        if (found.empty()) problem = p + ": directory holds no .npz snapshot";
+        for (const std::string& f : found) entries_.push_back({f, ""});
+        usable |= !found.empty();
+      } catch (const InputError& e) {
+        problem = e.what();
+      }
     } else if (fs::path(p).extension() == ".npz" || isRawlogPath(p)) {
-      files_.push_back(p);
+      entries_.push_back({p, ""});
+      usable = true;
     } else {
-      throw InputError(p + ": not a snapshot input (expected a .npz file, a .rawlog of DBA "
-                           "snapshots, or a directory of .npz files)");
+      problem = p + ": not a snapshot input (expected a .npz file, a .rawlog of DBA snapshots, or "
+                    "a directory of .npz files)";
     }
+    if (!problem.empty()) entries_.push_back({p, problem});
   }
+  if (!usable)
+    for (const Entry& e : entries_)
+      if (!e.error.empty()) throw InputError(e.error);
 }
 
 std::size_t SnapshotInputs::knownCount() const {
-  for (const auto& f : files_)
-    if (isRawlogPath(f)) return 0;
-  return files_.size();
+  for (const Entry& e : entries_)
+    if (e.error.empty() && isRawlogPath(e.path)) return 0;
+  return entries_.size();
 }
 
 void SnapshotInputs::forEach(const std::function<void(Snapshot&)>& process,
-                             const std::function<void(const std::string&)>& on_error) const {
+                             const std::function<void(const SnapshotItem&)>& on_error) const {
   SnapshotStream stream(*this);
   SnapshotItem item;
   while (stream.next(&item)) {
     if (item.ok())
       process(item.snapshot);
     else
-      on_error(item.error);
+      on_error(item);
   }
 }
 
@@ -51,38 +64,72 @@ SnapshotStream::SnapshotStream(const SnapshotInputs& inputs) : inputs_(inputs) {
 
 SnapshotStream::~SnapshotStream() = default;
 
+namespace {
+
+/// Records the exception `e` as the failure of `item`.
+void setError(SnapshotItem* item, const std::exception& e, const std::string& source) {
+  item->error = e.what();
+  item->source = source;
+  item->kind = classifyFailure(e, false);
+}
+
+}  // namespace
+
 bool SnapshotStream::next(SnapshotItem* item) {
   item->error.clear();
-  while (file_ < inputs_.files().size()) {
-    const std::string& file = inputs_.files()[file_];
+  item->source.clear();
+  while (file_ < inputs_.entries().size()) {
+    const SnapshotInputs::Entry& entry = inputs_.entries()[file_];
+    const std::string& file = entry.path;
+    if (!entry.error.empty()) {
+      ++file_;
+      ++index_;
+      setError(item, InputError(entry.error), file);
+      return true;
+    }
     if (!isRawlogPath(file)) {
       ++file_;
       try {
         item->snapshot = io::loadSnapshotNpz(file, index_++);
       } catch (const std::exception& e) {
-        item->error = e.what();
+        setError(item, e, file);
       }
       return true;
     }
     try {
-      if (!rawlog_) rawlog_ = std::make_unique<mrpt_bridge::RawlogSnapshotReader>(file, index_);
+      if (!rawlog_) {
+        rawlog_ = std::make_unique<mrpt_bridge::RawlogSnapshotReader>(file, index_);
+        rawlog_snapshots_ = 0;
+      }
       if (rawlog_->next(&item->snapshot)) {
+        ++rawlog_snapshots_;
         index_ = item->snapshot.index + 1;
         try {
           item->snapshot.validate();
-        } catch (const InputError& e) {
-          item->error = e.what();
+        } catch (const std::exception& e) {
+          setError(item, e, item->snapshot.source);
         }
         return true;
       }
-    } catch (const InputError& e) {
-      item->error = e.what();  // unreadable file or entry: report it and go on with the next input
+    } catch (const std::exception& e) {
+      // Unreadable file or entry: report it and go on with the next input.
+      setError(item, e, file);
       rawlog_.reset();
       ++file_;
       return true;
     }
+    const std::size_t objects = rawlog_->objectsRead();
     rawlog_.reset();
     ++file_;
+    if (rawlog_snapshots_ == 0) {
+      setError(item,
+               InputError(file + ": holds no DBA snapshot (" + std::to_string(objects) +
+                          " objects of other classes), expected the CObservationDbaSnapshot "
+                          "entries that droid2rawlog writes"),
+               file);
+      ++index_;
+      return true;
+    }
   }
   return false;
 }

@@ -70,6 +70,10 @@ SceneSink::SceneSink(SceneOutputOptions options) : options_(std::move(options)) 
   if (!options_.png_path.empty()) {
     io::AtomicOutputFile probe(options_.png_path);
     renderer_ = std::make_unique<mrpt_bridge::SceneRenderer>(options_.width, options_.height);
+    if (options_.every > 0) {
+      const std::string dir = std::filesystem::path(options_.png_path).parent_path().string();
+      frames_ = std::make_unique<io::DeferredFiles>(dir.empty() ? "." : dir);
+    }
   }
 }
 
@@ -95,14 +99,15 @@ void SceneSink::add(const Snapshot& s, const DbaCovariance& cov) {
   if (options_.every > 0 && processed_ % static_cast<std::size_t>(options_.every) == 0)
     render("after snapshot " + std::to_string(last_label_) + " (" + std::to_string(processed_) +
                " processed): " + detail::plural(history_.numKeyframes(), "keyframe"),
-           framePath(options_.png_path, last_label_), "");
+           framePath(options_.png_path, last_label_), "", true);
 }
 
 void SceneSink::commit() {
   render("dba-covariance: " + detail::plural(history_.numKeyframes(), "keyframe") + " from " +
              detail::plural(history_.numSnapshots(), "snapshot") +
              " (last: " + std::to_string(last_label_) + ")",
-         options_.png_path, options_.scene_path);
+         options_.png_path, options_.scene_path, false);
+  if (frames_) frames_->commit();
 }
 
 mrpt_bridge::SceneContent SceneSink::content(const std::string& headline) const {
@@ -128,7 +133,7 @@ mrpt_bridge::SceneContent SceneSink::content(const std::string& headline) const 
 }
 
 void SceneSink::render(const std::string& headline, const std::string& png,
-                       const std::string& scene_path) const {
+                       const std::string& scene_path, bool frame) {
   const mrpt_bridge::SceneContent c = content(headline);
   mrpt_bridge::SceneStyle style;
   style.exaggeration = options_.exaggeration;
@@ -139,17 +144,16 @@ void SceneSink::render(const std::string& headline, const std::string& png,
       mrpt_bridge::fitView(c, style, options_.width, options_.height);
   mrpt_bridge::applyView(*scene, view);
   if (!scene_path.empty()) mrpt_bridge::saveSceneFile(*scene, scene_path);
-  if (!png.empty()) renderer_->renderPng(*scene, view, png);
+  if (png.empty()) return;
+  if (frame)
+    frames_->add(png, mrpt_bridge::encodePng(renderer_->render(*scene, view), png));
+  else
+    renderer_->renderPng(*scene, view, png);
 }
 
 PlotsSink::PlotsSink(std::string dir) : dir_(std::move(dir)) {
   detail::requireGnuplot();
-  std::error_code ec;
-  std::filesystem::create_directories(dir_, ec);
-  if (ec || !std::filesystem::is_directory(dir_))
-    throw InputError(dir_ + ": cannot create the plots directory" +
-                     (ec ? ": " + ec.message() : ""));
-  io::AtomicOutputFile probe(dir_ + "/keyframes.csv");  // discarded: only checks the directory
+  checkOutputDirectory(dir_, "plots directory");  // created by commit()
 }
 
 void PlotsSink::add(const Snapshot& s, const DbaCovariance& cov) {

@@ -12,6 +12,7 @@
 #include "dbacov/core/pose_graph.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/io/atomic_file.h"
+#include "dbacov/io/deferred_files.h"
 
 namespace dbacov::mrpt_bridge {
 class RawlogWriter;
@@ -63,18 +64,30 @@ class RelativeCsvSink final : public CsvSink {
 };
 
 /// `--depth-sigma DIR`: DIR/<snapshot>_<keyframe>.npy per source keyframe, float32 H×W standard
-/// deviation of the inverse depth, NaN where a pixel carries no information. Each file is written
-/// atomically as soon as its snapshot is processed.
+/// deviation of the inverse depth, NaN where a pixel carries no information. The maps are queued
+/// in an unnamed spool file (io::DeferredFiles) and written, each atomically, by commit(): a run
+/// that stops early (--fail-fast, a kill) writes none of them. DIR is created by commit().
 class DepthSigmaSink final : public OutputSink {
  public:
+  /// Fails early (InputError) when DIR cannot be created or written.
   explicit DepthSigmaSink(const std::string& dir);
+  ~DepthSigmaSink() override;
   void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
-  void commit() override {}
+  void commit() override;
   bool needsDepthVariances() const override { return true; }
 
  private:
   std::string dir_;
+  std::unique_ptr<io::DeferredFiles> files_;
 };
+
+/// Checks that files can be created in directory `dir`, or, when it does not exist yet, in its
+/// nearest existing ancestor (where `create_directories` would create it); returns that
+/// directory. Creates nothing. Throws InputError naming `dir` and `what` otherwise.
+std::string checkOutputDirectory(const std::string& dir, const std::string& what);
+
+/// Creates `dir` (and its parents) if needed; InputError naming it and `what` otherwise.
+void createOutputDirectory(const std::string& dir, const std::string& what);
 
 enum class EmitMode {
   Latest,  ///< the newest graph keyframe of each snapshot (what an online fuser sees)

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "dbacov/app/run_summary.h"
 #include "dbacov/core/snapshot.h"
 
 namespace dbacov::mrpt_bridge {
@@ -16,26 +17,36 @@ class RawlogSnapshotReader;
 
 namespace dbacov::app {
 
+struct SnapshotItem;
+
 class SnapshotInputs {
  public:
   /// Expands `paths` in order: a directory contributes its `.npz` files sorted by name; `.npz` and
-  /// `.rawlog` files are taken as given. Throws InputError naming the path when it does not exist,
-  /// when a directory holds no `.npz` file, or when a file is neither.
+  /// `.rawlog` files are taken as given. A path that does not exist, a directory that holds no
+  /// `.npz` file (or cannot be listed) and a file that is neither is a problem: it stays in the
+  /// sequence as a failed input (see SnapshotStream), unless no usable input is left at all —
+  /// then the constructor throws InputError with the first problem, before anything is read.
   explicit SnapshotInputs(const std::vector<std::string>& paths);
 
   /// Number of snapshots when known in advance (only `.npz` inputs), else 0.
   std::size_t knownCount() const;
-  const std::vector<std::string>& files() const { return files_; }
+  /// The expanded inputs in order: a file to read, or (`error` set) a path that is a problem.
+  struct Entry {
+    std::string path;
+    std::string error;
+  };
+  const std::vector<Entry>& entries() const { return entries_; }
 
-  /// Reads the snapshots one at a time (see SnapshotStream), in order, and hands each to `process`. The n-th snapshot
-  /// (0-based over all inputs, failures included) gets index n. A snapshot that cannot be read or
-  /// is invalid goes to `on_error(message)` (the message names the file, entry, key or item) and
-  /// the rest are still processed; an unreadable rawlog entry ends that rawlog.
+  /// Reads the snapshots one at a time (see SnapshotStream), in order, and hands each to
+  /// `process`. The n-th snapshot (0-based over all inputs, failures included) gets index n. A
+  /// snapshot that cannot be read or is invalid goes to `on_error(item)` (its message names the
+  /// file, entry, key or item) and the rest are still processed; an unreadable rawlog entry ends
+  /// that rawlog. An exception from `process` or `on_error` ends the loop.
   void forEach(const std::function<void(Snapshot&)>& process,
-               const std::function<void(const std::string&)>& on_error) const;
+               const std::function<void(const SnapshotItem&)>& on_error) const;
 
  private:
-  std::vector<std::string> files_;
+  std::vector<Entry> entries_;
 };
 
 /// One item of the input: a valid snapshot, or the message of one that could not be read or is
@@ -43,12 +54,15 @@ class SnapshotInputs {
 struct SnapshotItem {
   Snapshot snapshot;
   std::string error;
+  std::string source;  ///< on failure: the snapshot's source ("file", "file.rawlog#entry") or file
+  FailureKind kind = FailureKind::InvalidInput;  ///< on failure
   bool ok() const { return error.empty(); }
 };
 
 /// Pull-based reading of the inputs, one snapshot in memory at a time. The n-th item (0-based over
-/// all inputs, failures included) gets index n. An unreadable rawlog entry yields an error item
-/// and ends that rawlog; reading goes on with the next input.
+/// all inputs, failures included) gets index n. A problem input yields an error item; an
+/// unreadable rawlog entry yields an error item and ends that rawlog, and so does a rawlog that
+/// holds no snapshot at all; reading goes on with the next input.
 class SnapshotStream {
  public:
   explicit SnapshotStream(const SnapshotInputs& inputs);
@@ -61,6 +75,7 @@ class SnapshotStream {
   std::size_t file_ = 0;
   std::int64_t index_ = 0;
   std::unique_ptr<mrpt_bridge::RawlogSnapshotReader> rawlog_;
+  std::size_t rawlog_snapshots_ = 0;  ///< snapshots read from the current rawlog
 };
 
 bool isRawlogPath(const std::string& path);

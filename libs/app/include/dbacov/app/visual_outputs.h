@@ -42,7 +42,9 @@ struct SceneOutputOptions {
 /// `--scene` / `--snapshot`: the scene of SceneContent (dbacov/mrpt/scene.h) over the processed
 /// sequence: ground grid, trajectory, frustums, 3-sigma world position ellipsoids (exaggerated,
 /// stated in the legend), co-visible pairs, optionally the point cloud. The PNG is rendered
-/// offscreen with the camera fitted to the content; the `.3Dscene` stores the same camera.
+/// offscreen with the camera fitted to the content; the `.3Dscene` stores the same camera. Every
+/// file appears at commit(): the --snapshot-every pictures are rendered as the snapshots come and
+/// queued until then (io::DeferredFiles).
 class SceneSink final : public OutputSink {
  public:
   /// Creates the offscreen renderer when a picture is wanted (InputError when EGL is unavailable)
@@ -57,7 +59,10 @@ class SceneSink final : public OutputSink {
 
  private:
   mrpt_bridge::SceneContent content(const std::string& headline) const;
-  void render(const std::string& headline, const std::string& png, const std::string& scene) const;
+  /// Renders the scene; writes `png` and `scene` (when not empty) or, for a frame of
+  /// --snapshot-every, queues the PNG in frames_ (written by commit()).
+  void render(const std::string& headline, const std::string& png, const std::string& scene,
+              bool frame);
 
   SceneOutputOptions options_;
   SequenceHistory history_;
@@ -65,6 +70,7 @@ class SceneSink final : public OutputSink {
   int H_ = 1, W_ = 1;
   std::map<double, std::vector<Eigen::Vector3f>> points_;  ///< tstamp → world points
   std::unique_ptr<mrpt_bridge::SceneRenderer> renderer_;
+  std::unique_ptr<io::DeferredFiles> frames_;  ///< --snapshot-every pictures, until commit()
   std::int64_t last_label_ = 0;
   std::size_t processed_ = 0;
 };
@@ -72,7 +78,8 @@ class SceneSink final : public OutputSink {
 /// `--plots DIR`: the figures of plots.h. Needs depth variances (for the depth maps).
 class PlotsSink final : public OutputSink {
  public:
-  /// Checks that gnuplot with pngcairo runs (InputError otherwise) and creates DIR.
+  /// Checks that gnuplot with pngcairo runs and that DIR can be created (InputError otherwise);
+  /// DIR is created by commit().
   explicit PlotsSink(std::string dir);
   void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
   void commit() override;
