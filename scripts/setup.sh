@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian package that dbacov's build, tests, demo and benchmarks need, then configures
-# and builds the project (Release) in ./build. Idempotent: packages already present are not
-# reinstalled and the build is incremental. Usage: scripts/setup.sh [--no-build]
+# and builds the project (Release) in ./build (or $DBACOV_BUILD_DIR). Idempotent: packages already
+# present are not reinstalled and the build is incremental. Usage: scripts/setup.sh [--no-build]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,6 +18,9 @@ PACKAGES=(
   gnuplot-nox fonts-dejavu-core
   libegl1 libegl-mesa0 libgl1-mesa-dri
   python3-numpy
+  # Reliability (scripts/test.sh, scripts/fuzz.sh): zlib (rawlogs from pipes), clang with its
+  # libFuzzer and sanitizer runtimes for the fuzz targets (the sanitizer pass itself uses GCC).
+  zlib1g-dev clang libclang-rt-14-dev
 )
 
 missing=()
@@ -33,6 +36,7 @@ if ((${#missing[@]})); then
 fi
 
 if [ "${1:-}" != "--no-build" ]; then
-  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
-  cmake --build build -j"$(nproc)"
+  build=${DBACOV_BUILD_DIR:-build}
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
+  cmake --build "$build" -j"$(nproc)"
 fi

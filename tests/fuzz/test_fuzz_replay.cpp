@@ -1,0 +1,76 @@
+// The fuzz targets replayed by ctest, in every build (Release and the sanitizer pass): their seed
+// corpora, which must be valid inputs, and every input of tests/fuzz/regressions/<target>/ — each
+// one a crash or sanitizer report that fuzzing found once and that must never come back.
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include <gtest/gtest.h>
+
+#include "dbacov/io/snapshot_npz.h"
+#include "dbacov/mrpt/rawlog_io.h"
+#include "fuzz_seeds.h"
+
+extern "C" int dbacovFuzzNpz(const std::uint8_t* data, std::size_t size);
+extern "C" int dbacovFuzzRawlog(const std::uint8_t* data, std::size_t size);
+
+namespace dbacov {
+namespace {
+
+const std::string kRegressions = std::string(DBACOV_SOURCE_DIR) + "/tests/fuzz/regressions/";
+
+/// The files of tests/fuzz/regressions/<target>/, sorted.
+std::vector<std::string> regressions(const std::string& target) {
+  std::vector<std::string> files;
+  std::error_code ec;  // a target without regressions has no directory
+  for (const auto& e : std::filesystem::directory_iterator(kRegressions + target, ec))
+    if (e.is_regular_file() && e.path().filename().string()[0] != '.') files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::vector<unsigned char> readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<unsigned char>(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST(FuzzReplay, NpzSeedsAreValidSnapshots) {
+  const fuzz::Corpus seeds = fuzz::npzSeeds();
+  ASSERT_GE(seeds.size(), 4u);
+  for (const auto& [name, bytes] : seeds) {
+    SCOPED_TRACE(name);
+    EXPECT_NO_THROW(EXPECT_EQ(fuzz::snapshotsInSeed("npz", name, bytes), 1));
+    EXPECT_EQ(dbacovFuzzNpz(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, RawlogSeedsHoldValidSnapshots) {
+  const fuzz::Corpus seeds = fuzz::rawlogSeeds();
+  ASSERT_GE(seeds.size(), 3u);
+  for (const auto& [name, bytes] : seeds) {
+    SCOPED_TRACE(name);
+    int n = 0;
+    EXPECT_NO_THROW(n = fuzz::snapshotsInSeed("rawlog", name, bytes));
+    EXPECT_GE(n, 1);
+    EXPECT_EQ(dbacovFuzzRawlog(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, NpzRegressions) {
+  for (const std::string& file : regressions("npz")) {
+    SCOPED_TRACE(file);
+    const std::vector<unsigned char> bytes = readBytes(file);
+    EXPECT_EQ(dbacovFuzzNpz(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, RawlogRegressions) {
+  for (const std::string& file : regressions("rawlog")) {
+    SCOPED_TRACE(file);
+    const std::vector<unsigned char> bytes = readBytes(file);
+    EXPECT_EQ(dbacovFuzzRawlog(bytes.data(), bytes.size()), 0);
+  }
+}
+
+}  // namespace
+}  // namespace dbacov
