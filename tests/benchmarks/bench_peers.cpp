@@ -15,28 +15,17 @@
 
 #include <benchmark/benchmark.h>
 
+#include "bench_problems.h"
 #include "ceres_problems.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/parallel.h"
-#include "dbacov/io/snapshot_npz.h"
-#include "dbacov/sim/synthetic_snapshot.h"
 
 namespace dbacov::bench {
 namespace {
 
-const std::string kShared = std::string(DBACOV_SHARED_DATA_DIR) + "/droid_window_0055.npz";
-
 /// Problem 1: a DROID-sized window from the simulator.
 Snapshot droidSizedWindow() {
-  sim::SyntheticSnapshotConfig c;
-  c.num_keyframes = 25;
-  c.H = 48;
-  c.W = 64;
-  c.fx = c.fy = 0.87 * c.W;
-  c.cx = 0.5 * (c.W - 1);
-  c.cy = 0.5 * (c.H - 1);
-  c.trajectory.num_keyframes = 25;
-  c.covisibility.edge_radius = 3;
+  sim::SyntheticSnapshotConfig c = droidSizedWindowConfig();
   c.weight_scale = 4.0;
   return sim::generateSyntheticSnapshot(c).snapshot;
 }
@@ -53,7 +42,7 @@ const Case& problem(int which) {
   if (it != cache.end()) return it->second;
   Case c;
   if (which == 0) {
-    c.snapshot = io::loadSnapshotNpz(kShared, 0);
+    c.snapshot = sharedSnapshot();
     c.options = DbaOptions::droid();
   } else {
     c.snapshot = droidSizedWindow();
@@ -66,11 +55,7 @@ const Case& problem(int which) {
 }
 
 bool unavailable(benchmark::State& state) {
-  if (state.range(0) == 0 && !std::filesystem::exists(kShared)) {
-    state.SkipWithError(("missing " + kShared).c_str());
-    return true;
-  }
-  return false;
+  return state.range(0) == 0 && skipWithoutSharedSnapshot(state);
 }
 
 double relDiff(const Case& c, int k, const Matrix6d& got) {

@@ -12,51 +12,26 @@
 
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/parallel.h"
-#include "dbacov/io/snapshot_npz.h"
-#include "dbacov/sim/synthetic_snapshot.h"
+#include "bench_problems.h"
 #include "flop_count.h"
 
 namespace dbacov::bench {
 namespace {
 
-const std::string kShared = std::string(DBACOV_SHARED_DATA_DIR) + "/droid_window_0055.npz";
-
-const Snapshot& shared() {
-  static const Snapshot s = io::loadSnapshotNpz(kShared, 0);
-  return s;
-}
-
-bool skipWithoutData(benchmark::State& state) {
-  if (std::filesystem::exists(kShared)) return false;
-  state.SkipWithError(("missing " + kShared).c_str());
-  return true;
-}
-
 void BM_Load(benchmark::State& state) {
-  if (skipWithoutData(state)) return;
-  for (auto _ : state) benchmark::DoNotOptimize(io::loadSnapshotNpz(kShared, 0));
+  if (skipWithoutSharedSnapshot(state)) return;
+  for (auto _ : state) benchmark::DoNotOptimize(io::loadSnapshotNpz(kSharedSnapshot, 0));
 }
 
 /// 0: the shared DROID snapshot; 1: a simulated DROID-sized window (25 keyframes, 48×64).
 const Snapshot& snapshot(int which) {
-  static const Snapshot window = [] {
-    sim::SyntheticSnapshotConfig c;
-    c.num_keyframes = 25;
-    c.H = 48;
-    c.W = 64;
-    c.fx = c.fy = 0.87 * c.W;
-    c.cx = 0.5 * (c.W - 1);
-    c.cy = 0.5 * (c.H - 1);
-    c.trajectory.num_keyframes = 25;
-    c.covisibility.edge_radius = 3;
-    return sim::generateSyntheticSnapshot(c).snapshot;
-  }();
-  return which == 0 ? shared() : window;
+  static const Snapshot window = sim::generateSyntheticSnapshot(droidSizedWindowConfig()).snapshot;
+  return which == 0 ? sharedSnapshot() : window;
 }
 
 /// Linearization + depth Schur complement on `threads` threads, against the FLOP floor.
 void BM_Linearize(benchmark::State& state) {
-  if (state.range(0) == 0 && skipWithoutData(state)) return;
+  if (state.range(0) == 0 && skipWithoutSharedSnapshot(state)) return;
   const ThreadLimit limit(static_cast<std::size_t>(state.range(1)));
   const Snapshot& s = snapshot(static_cast<int>(state.range(0)));
   DbaOptions o = DbaOptions::droid();
@@ -69,13 +44,13 @@ void BM_Linearize(benchmark::State& state) {
 }
 
 void BM_Covariances(benchmark::State& state) {
-  if (skipWithoutData(state)) return;
+  if (skipWithoutSharedSnapshot(state)) return;
   const ThreadLimit one(1);
   SolverOptions so;
   so.kind = state.range(0) ? SolverKind::Sparse : SolverKind::Dense;
   const DbaOptions o = DbaOptions::droid();
   for (auto _ : state) {
-    const DbaCovariance cov(shared(), o, so);
+    const DbaCovariance cov(sharedSnapshot(), o, so);
     double sum = 0;
     for (int k : cov.keyframes()) sum += cov.marginal(k).trace();
     benchmark::DoNotOptimize(sum);
