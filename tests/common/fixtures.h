@@ -1,9 +1,12 @@
-// Small synthetic snapshots shared by the app and MRPT tests.
+// Small synthetic snapshots and options shared by the test suites.
 #pragma once
 
 #include <cstdint>
+#include <random>
 #include <string>
 
+#include "dbacov/core/options.h"
+#include "dbacov/core/se3.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 
@@ -39,6 +42,24 @@ inline sim::SyntheticSnapshot writeTinySnapshot(const std::string& path, std::ui
   auto syn = tinySnapshot(seed, id, keyframes);
   io::saveSnapshotNpz(path, syn.snapshot);
   return syn;
+}
+
+/// The tests' engine options: weight scale 4 and the given gauge.
+inline DbaOptions gaugeOptions(GaugeOptions::Type type, double sigma_rot, double sigma_trans) {
+  DbaOptions o;
+  o.weight_scale = 4.0;
+  o.gauge.type = type;
+  o.gauge.sigma_rot = sigma_rot;
+  o.gauge.sigma_trans = sigma_trans;
+  return o;
+}
+
+/// A tangent vector [rho; phi] with independent N(0, scale^2) entries.
+inline Vector6d randomTangent(std::mt19937& rng, double scale) {
+  std::normal_distribution<double> n(0.0, scale);
+  Vector6d xi;
+  for (int i = 0; i < 6; ++i) xi[i] = n(rng);
+  return xi;
 }
 
 }  // namespace dbacov::testing

@@ -10,16 +10,9 @@
 namespace dbacov {
 namespace {
 
-sim::SyntheticSnapshotConfig smallConfig(std::uint64_t seed) { return testing::gridConfig(seed, 5, 6, 8); }
+using testing::gaugeOptions;
 
-DbaOptions withGauge(GaugeOptions::Type type, double sigma_rot, double sigma_trans) {
-  DbaOptions o;
-  o.weight_scale = 4.0;
-  o.gauge.type = type;
-  o.gauge.sigma_rot = sigma_rot;
-  o.gauge.sigma_trans = sigma_trans;
-  return o;
-}
+sim::SyntheticSnapshotConfig smallConfig(std::uint64_t seed) { return testing::gridConfig(seed, 5, 6, 8); }
 
 double relErr(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / std::max(b.norm(), 1e-300);
@@ -52,25 +45,25 @@ void expectMatchesDense(const Snapshot& s, const DbaOptions& o, double tol) {
 TEST(Covariance, MatchesDenseFullInverseHardTwoPose) {
   for (std::uint64_t seed : {1, 2}) {
     const auto syn = sim::generateSyntheticSnapshot(smallConfig(seed));
-    expectMatchesDense(syn.snapshot, withGauge(GaugeOptions::Type::TwoPose, 0, 0), 1e-8);
+    expectMatchesDense(syn.snapshot, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0), 1e-8);
   }
 }
 
 TEST(Covariance, MatchesDenseFullInverseSoftTwoPose) {
   const auto syn = sim::generateSyntheticSnapshot(smallConfig(3));
-  expectMatchesDense(syn.snapshot, withGauge(GaugeOptions::Type::TwoPose, 0.02, 0.05), 1e-8);
+  expectMatchesDense(syn.snapshot, gaugeOptions(GaugeOptions::Type::TwoPose, 0.02, 0.05), 1e-8);
 }
 
 TEST(Covariance, MatchesDenseFullInverseMixedTwoPose) {
   // Rotation hard-fixed, translation soft: components are removed independently.
   const auto syn = sim::generateSyntheticSnapshot(smallConfig(4));
-  expectMatchesDense(syn.snapshot, withGauge(GaugeOptions::Type::TwoPose, 0, 0.05), 1e-8);
+  expectMatchesDense(syn.snapshot, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0.05), 1e-8);
 }
 
 TEST(Covariance, MatchesDenseFullInverseMinimal) {
   const auto syn = sim::generateSyntheticSnapshot(smallConfig(5));
-  expectMatchesDense(syn.snapshot, withGauge(GaugeOptions::Type::Minimal, 0, 0), 1e-8);
-  const DbaCovariance cov(syn.snapshot, withGauge(GaugeOptions::Type::Minimal, 0, 0));
+  expectMatchesDense(syn.snapshot, gaugeOptions(GaugeOptions::Type::Minimal, 0, 0), 1e-8);
+  const DbaCovariance cov(syn.snapshot, gaugeOptions(GaugeOptions::Type::Minimal, 0, 0));
   EXPECT_EQ(cov.freeDof(0), 0);
   EXPECT_EQ(cov.freeDof(1), 5);
   EXPECT_EQ(cov.freeDof(2), 6);
@@ -89,9 +82,9 @@ TEST(Covariance, MatchesDenseWithPaperFilters) {
 
 TEST(Covariance, TightSoftPriorApproachesHardFix) {
   const auto syn = sim::generateSyntheticSnapshot(smallConfig(7));
-  const DbaCovariance hard(syn.snapshot, withGauge(GaugeOptions::Type::TwoPose, 0, 0));
-  const DbaCovariance tight(syn.snapshot, withGauge(GaugeOptions::Type::TwoPose, 1e-7, 1e-7));
-  const DbaCovariance loose(syn.snapshot, withGauge(GaugeOptions::Type::TwoPose, 1e-2, 1e-2));
+  const DbaCovariance hard(syn.snapshot, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0));
+  const DbaCovariance tight(syn.snapshot, gaugeOptions(GaugeOptions::Type::TwoPose, 1e-7, 1e-7));
+  const DbaCovariance loose(syn.snapshot, gaugeOptions(GaugeOptions::Type::TwoPose, 1e-2, 1e-2));
   for (int k : hard.keyframes()) {
     if (hard.freeDof(k) == 0) {
       EXPECT_LT(tight.marginal(k).norm(), 1e-12);
@@ -104,7 +97,7 @@ TEST(Covariance, TightSoftPriorApproachesHardFix) {
 
 TEST(Covariance, WeightScalingDividesCovariance) {
   const auto syn = sim::generateSyntheticSnapshot(smallConfig(8));
-  DbaOptions o = withGauge(GaugeOptions::Type::TwoPose, 0, 0);
+  DbaOptions o = gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0);
   const DbaCovariance a(syn.snapshot, o);
   Snapshot scaled = syn.snapshot;
   for (float& w : scaled.weight) w *= 0.25f;  // exact in binary floating point
@@ -121,7 +114,7 @@ TEST(Covariance, RigidWorldChangeLeavesTangentCovariancesUnchanged) {
   Snapshot moved = syn.snapshot;
   for (int k = 0; k < moved.numKeyframes(); ++k) moved.setT_wc(k, G * syn.snapshot.T_wc(k));
   for (auto type : {GaugeOptions::Type::TwoPose, GaugeOptions::Type::Minimal}) {
-    const DbaOptions o = withGauge(type, type == GaugeOptions::Type::TwoPose ? 0.01 : 0, 0.02);
+    const DbaOptions o = gaugeOptions(type, type == GaugeOptions::Type::TwoPose ? 0.01 : 0, 0.02);
     const DbaCovariance a(syn.snapshot, o), b(moved, o);
     for (int k : a.keyframes()) {
       if (a.marginal(k).norm() == 0) continue;
@@ -153,7 +146,7 @@ TEST(Covariance, DisconnectedPartIsNamed) {
   }
   cut.validate();
   try {
-    DbaCovariance cov(cut, withGauge(GaugeOptions::Type::TwoPose, 0, 0));
+    DbaCovariance cov(cut, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0));
     FAIL() << "expected a NumericalError";
   } catch (const NumericalError& e) {
     EXPECT_EQ(e.keyframes(), (std::vector<int>{3, 4, 5}));
@@ -170,7 +163,7 @@ TEST(Covariance, AllZeroWeightsOfAKeyframeIsNumericalError) {
     if (s.ii[e] == 4 || s.jj[e] == 4)
       std::fill(s.weight.begin() + e * plane, s.weight.begin() + (e + 1) * plane, 0.0f);
   try {
-    DbaCovariance cov(s, withGauge(GaugeOptions::Type::TwoPose, 0, 0));
+    DbaCovariance cov(s, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0));
     FAIL() << "expected a NumericalError";
   } catch (const NumericalError& e) {
     EXPECT_EQ(e.keyframes(), std::vector<int>{4}) << e.what();
@@ -191,7 +184,7 @@ TEST(Covariance, TwoKeyframesUnderAHardGaugeHaveZeroCovariance) {
     SolverOptions so;
     so.kind = kind;
     so.depth_variances = true;
-    const DbaCovariance cov(syn.snapshot, withGauge(GaugeOptions::Type::TwoPose, 0, 0), so);
+    const DbaCovariance cov(syn.snapshot, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0), so);
     EXPECT_EQ(cov.marginal(0), Matrix6d::Zero());
     EXPECT_EQ(cov.relative(0, 1), Matrix6d::Zero());
     // Depths still have a variance: 1/h (the poses are fixed).

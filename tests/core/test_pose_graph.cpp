@@ -6,16 +6,12 @@
 #include <gtest/gtest.h>
 
 #include "dbacov/core/pose_graph.h"
+#include "fixtures.h"
 
 namespace dbacov {
 namespace {
 
-Vector6d randomTangent(std::mt19937& rng, double scale) {
-  std::normal_distribution<double> n(0.0, scale);
-  Vector6d v;
-  for (int i = 0; i < 6; ++i) v[i] = n(rng);
-  return v;
-}
+using testing::randomTangent;
 
 TEST(PoseGraph, RightJacobianMatchesFiniteDifferences) {
   std::mt19937 rng(3);

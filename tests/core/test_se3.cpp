@@ -3,16 +3,12 @@
 #include <gtest/gtest.h>
 
 #include "dbacov/core/se3.h"
+#include "fixtures.h"
 
 namespace dbacov {
 namespace {
 
-Vector6d randomTangent(std::mt19937& rng, double scale) {
-  std::normal_distribution<double> n(0.0, scale);
-  Vector6d xi;
-  for (int i = 0; i < 6; ++i) xi[i] = n(rng);
-  return xi;
-}
+using testing::randomTangent;
 
 TEST(Se3, ExpLogRoundTrip) {
   std::mt19937 rng(7);

@@ -23,6 +23,8 @@
 namespace dbacov {
 namespace {
 
+using testing::gaugeOptions;
+
 sim::SyntheticSnapshotConfig tinyConfig(std::uint64_t seed) { return testing::gridConfig(seed, 5, 6, 8); }
 
 /// The synthetic snapshot with its graph poses and depths moved away from the optimum.
@@ -37,15 +39,6 @@ Snapshot perturbed(std::uint64_t seed) {
   }
   for (float& d : s.disps) d *= static_cast<float>(1.0 + 0.03 * n01(rng));
   return s;
-}
-
-DbaOptions gaugeOptions(GaugeOptions::Type type, double sigma_rot, double sigma_trans) {
-  DbaOptions o;
-  o.weight_scale = 4.0;
-  o.gauge.type = type;
-  o.gauge.sigma_rot = sigma_rot;
-  o.gauge.sigma_trans = sigma_trans;
-  return o;
 }
 
 struct DenseStep {
