@@ -11,6 +11,7 @@
 #include "dbacov/app/csv_format.h"
 #include "dbacov/app/extra_constraints.h"
 #include "dbacov/io/atomic_file.h"
+#include "dbacov/mrpt/mrpt_errors.h"
 #include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/pose_graph_io.h"
 #include "dbacov/mrpt/rawlog_io.h"
@@ -20,7 +21,9 @@ namespace dbacov::app {
 namespace {
 namespace fs = std::filesystem;
 
-/// Loads the graph and checks that every edge's information is symmetric positive definite.
+/// Loads the graph and checks it: at least one node, finite node poses, edges between nodes the
+/// graph has, finite measurements, information matrices symmetric positive definite. MRPT's
+/// optimizer would otherwise stop with an exception (or silently use NaN) deep inside.
 PoseGraph loadGraph(const std::string& path) {
   const std::string ext = fs::path(path).extension().string();
   PoseGraph g;
@@ -31,12 +34,20 @@ PoseGraph loadGraph(const std::string& path) {
   else
     throw std::invalid_argument(path + ": expected a .graphbin (exact) or .graph (MRPT text) file; "
                                 "MRPT's loader would misread the rotation information of a .g2o");
+  if (g.nodes.empty()) throw InputError(path + ": the graph has no nodes");
+  for (const auto& [id, T] : g.nodes)
+    if (!T.matrix().allFinite())
+      throw InputError(path + ": node " + std::to_string(id) + " has a non-finite pose");
   for (const PoseGraphEdge& e : g.edges) {
+    const std::string edge = path + ": edge " + std::to_string(e.from) + " -> " + std::to_string(e.to);
+    for (int node : {e.from, e.to})
+      if (!g.nodes.count(node))
+        throw InputError(edge + " names node " + std::to_string(node) + ", which the graph does not have");
+    if (!e.Z.matrix().allFinite()) throw InputError(edge + " has a non-finite relative pose");
     Matrix6d unused;
     const Matrix6d I = e.information;
     if (!I.allFinite() || !informationOf(0.5 * (I + I.transpose()), &unused))
-      throw InputError(path + ": edge " + std::to_string(e.from) + " -> " + std::to_string(e.to) +
-                       " has an information matrix that is not positive definite" +
+      throw InputError(edge + " has an information matrix that is not positive definite" +
                        (ext == ".graph" ? " (MRPT's text loader drops its rotation-rotation "
                                           "off-diagonal entries; load the .graphbin instead)"
                                         : ""));
@@ -130,7 +141,6 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
       err << "dba-posegraph: " << e.what() << "\nRun with --help for usage.\n";
       return 2;
     }
-    if (g.nodes.empty()) throw InputError(graph_path + ": the graph has no nodes");
     if (nodes_path.empty()) {
       const std::string guess = fs::path(graph_path).replace_extension(".nodes.csv").string();
       if (fs::exists(guess)) nodes_path = guess;
@@ -158,7 +168,12 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
     mrpt::containers::yaml params;
     params["max_iterations"] = max_iterations;
     const double initial_cost = poseGraphCostAndGradient(g, fixed).first;
-    mrpt::graphslam::optimize_graph_spa_levmarq(net, info, nullptr, params);
+    try {
+      mrpt::graphslam::optimize_graph_spa_levmarq(net, info, nullptr, params);
+    } catch (const std::exception& e) {
+      throw NumericalError(graph_path + ": MRPT's optimizer failed: " +
+                           mrpt_bridge::conciseMrptMessage(e.what()), {});
+    }
     for (auto& [id, T] : g.nodes) T = mrpt_bridge::fromCPose3D(net.nodes.at(id));
     const auto [mrpt_cost, mrpt_gradient] = poseGraphCostAndGradient(g, fixed);
     PoseGraphOptimizerSummary refine;

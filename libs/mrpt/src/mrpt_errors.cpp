@@ -1,4 +1,4 @@
-#include "mrpt_errors.h"
+#include "dbacov/mrpt/mrpt_errors.h"
 
 #include <sstream>
 #include <vector>

@@ -9,7 +9,7 @@
 
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/mrpt/pose_conversion.h"
-#include "mrpt_errors.h"
+#include "dbacov/mrpt/mrpt_errors.h"
 
 namespace dbacov::mrpt_bridge {
 namespace {

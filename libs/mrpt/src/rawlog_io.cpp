@@ -11,7 +11,7 @@
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 #include "gz_input_stream.h"
-#include "mrpt_errors.h"
+#include "dbacov/mrpt/mrpt_errors.h"
 #include "object_guard.h"
 
 namespace dbacov::mrpt_bridge {

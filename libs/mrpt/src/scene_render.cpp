@@ -17,7 +17,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "dbacov/io/atomic_file.h"
-#include "mrpt_errors.h"
+#include "dbacov/mrpt/mrpt_errors.h"
 #include "scene_internal.h"
 
 namespace dbacov::mrpt_bridge {

@@ -1,4 +1,4 @@
-// Private helper of dbacov_mrpt: readable messages from MRPT exceptions.
+// Readable messages from MRPT exceptions (for the apps and the MRPT bridge).
 #pragma once
 
 #include <string>
