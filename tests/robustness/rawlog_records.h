@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <zlib.h>
+
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/io/CMemoryStream.h>
 #include <mrpt/serialization/CArchive.h>
@@ -57,6 +59,22 @@ inline RecordBytes serializeRecord(const Snapshot& s, const std::string& label =
 inline void writeGz(const std::string& path, const std::vector<unsigned char>& bytes) {
   mrpt::io::CFileGZOutputStream out(path);
   if (!bytes.empty()) out.Write(bytes.data(), bytes.size());
+}
+
+/// `bytes` gzip-compressed up to a sync flush, without the end of the stream: what a writer that
+/// flushes after every record (as a live pipe needs) leaves behind when it is killed.
+inline std::vector<unsigned char> gzCutAtFlush(const std::vector<unsigned char>& bytes) {
+  z_stream z{};
+  deflateInit2(&z, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15 + 16 /* gzip */, 8, Z_DEFAULT_STRATEGY);
+  std::vector<unsigned char> out(deflateBound(&z, bytes.size()) + 64);
+  z.next_in = const_cast<unsigned char*>(bytes.data());
+  z.avail_in = static_cast<unsigned>(bytes.size());
+  z.next_out = out.data();
+  z.avail_out = static_cast<unsigned>(out.size());
+  deflate(&z, Z_SYNC_FLUSH);
+  out.resize(out.size() - z.avail_out);
+  deflateEnd(&z);
+  return out;
 }
 
 /// A rawlog holding one record of `s`, changed by `edit` first.

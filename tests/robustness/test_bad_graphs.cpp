@@ -132,6 +132,36 @@ TEST_P(BadGraphTest, IsRefusedWithTheKeyframesOrProcessedAndTheOthersAreWritten)
 INSTANTIATE_TEST_SUITE_P(Corpus, BadGraphTest, ::testing::ValuesIn(corpus()),
                          [](const auto& p) { return p.param.name; });
 
+TEST(BadGraphs, ValuesThatOverflowDoublePrecisionGiveANumericalErrorNotNaN) {
+  // Found by fuzz_rawlog (regressions/rawlog/principal_point_1e154_overflows_the_covariance):
+  // intrinsics far out of range pass validation (finite; a rawlog keeps float64 intrinsics), and
+  // the factor's products overflow. Each case must end in a NumericalError, never in NaN.
+  struct Case {
+    int intrinsic;
+    double value;
+    std::string error;
+  };
+  for (const Case& c : std::vector<Case>{
+           {0, 1e153, "the information matrix has non-finite entries at keyframe 0: the "
+                      "snapshot's values overflow double precision in the DBA factor "
+                      "(intrinsics, poses or inverse depths far out of range)"},
+           {2, 1e140, "the covariances of keyframes 4, 5 overflow double precision (the "
+                      "information matrix is numerically singular)"}}) {
+    SCOPED_TRACE(c.error);
+    Snapshot s = testing::tinySnapshot(2, 2).snapshot;
+    s.intrinsics[c.intrinsic] = c.value;
+    ASSERT_NO_THROW(s.validate());
+    DbaOptions o = DbaOptions::droid();
+    o.weight_scale = 4;
+    try {
+      const DbaCovariance cov(s, o);
+      ADD_FAILURE() << "expected a NumericalError";
+    } catch (const NumericalError& e) {
+      EXPECT_EQ(std::string(e.what()), c.error);
+    }
+  }
+}
+
 TEST(BadGraphs, DegenerateGeometryGivesHugeFiniteCovariances) {
   DbaOptions o = DbaOptions::droid();
   o.weight_scale = 4;

@@ -81,6 +81,14 @@ std::vector<BadRawlog> corpus() {
        ": entry 0 cannot be read: snapshot record truncated in '[a-z_]+': it declares [0-9]+ values "
        "\\([0-9]+ bytes\\) but the stream ends after [0-9]+ bytes",
        0, "bad.rawlog", true},
+      {"gz_cut_at_flush_point",
+       [](const std::string& p) {
+         // A good record, flushed, then the file ends: no end-of-stream marker, no trailer.
+         testing::writeBytes(p, testing::gzCutAtFlush(testing::serializeRecord(good(5)).bytes));
+       },
+       ": entry 1 cannot be read: read error: the compressed data is damaged or ends early "
+       "(truncated)",
+       1, "bad.rawlog"},
       {"gz_corrupt",
        [](const std::string& p) {
          testing::writeRecord(p, good(5), [](RecordBytes&) {});

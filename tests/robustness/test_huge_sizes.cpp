@@ -184,7 +184,7 @@ TEST(HugeSizes, SensoryFrameDeclaringBillionsOfObservationsIsRefusedBeforeAlloca
   const auto [message, largest] = rawlogRefusal(dir.file("s.rawlog"));
   EXPECT_EQ(message, dir.file("s.rawlog") +
                          ": entry 0 cannot be read: CSensoryFrame declares 4278124286 "
-                         "observations, more than the 1048576 accepted");
+                         "observations, more than the 65536 accepted");
   EXPECT_LT(largest, kMiB);
 }
 

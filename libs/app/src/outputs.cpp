@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <sstream>
 
 #include "dbacov/app/csv_format.h"
 #include "dbacov/core/criteria.h"
@@ -43,25 +44,32 @@ void CsvSink::commit() {
 
 KeyframeCsvSink::KeyframeCsvSink(const std::string& path) : CsvSink(path, keyframeCsvHeader()) {}
 
+// The rows of one snapshot are formatted first and written together: a value that cannot be
+// written (formatDouble refuses NaN) fails the snapshot without leaving part of it in the table.
+
 void KeyframeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
+  std::ostringstream rows;
   for (int k : cov.keyframes()) {
     const Matrix6d Sigma = cov.marginal(k);
     const UncertaintyCriteria c = computeCriteria(Sigma);
-    os() << s.label() << ',' << k << ',' << formatDouble(s.tstamp[k]) << ','
+    rows << s.label() << ',' << k << ',' << formatDouble(s.tstamp[k]) << ','
          << poseValues(cov.T_wc(k));
     for (double v : {c.log10_det, c.d_opt, c.a_opt, c.e_opt, c.log10_det_rot, c.log10_det_trans})
-      os() << ',' << formatDouble(v);
-    os() << ',' << upperTriangleValues(Sigma) << '\n';
+      rows << ',' << formatDouble(v);
+    rows << ',' << upperTriangleValues(Sigma) << '\n';
   }
+  os() << rows.str();
 }
 
 RelativeCsvSink::RelativeCsvSink(const std::string& path) : CsvSink(path, relativeCsvHeader()) {}
 
 void RelativeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
+  std::ostringstream rows;
   for (const auto& [a, b] : s.relativePairs())
-    os() << s.label() << ',' << a << ',' << b << ','
+    rows << s.label() << ',' << a << ',' << b << ','
          << poseValues(cov.T_wc(a).inverse() * cov.T_wc(b)) << ','
          << upperTriangleValues(cov.relative(a, b)) << '\n';
+  os() << rows.str();
 }
 
 std::string checkOutputDirectory(const std::string& dir, const std::string& what) {

@@ -17,7 +17,9 @@ SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {
     std::error_code ec;
     const fs::file_status st = fs::status(p, ec);
     std::string problem;
-    if (ec || !fs::exists(st)) {
+    if (ec && ec != std::errc::no_such_file_or_directory) {  // e.g. a directory on the way
+      problem = p + ": cannot access: " + ec.message();              // that may not be searched
+    } else if (!fs::exists(st)) {
       problem = p + ": no such file or directory";
     } else if (fs::is_directory(st)) {
       try {
@@ -112,10 +114,12 @@ bool SnapshotStream::next(SnapshotItem* item) {
         return true;
       }
     } catch (const std::exception& e) {
-      // Unreadable file or entry: report it and go on with the next input.
+      // Unreadable file or entry: report it (it counts as the next snapshot, as a failed .npz
+      // does) and go on with the next input.
       setError(item, e, file);
       rawlog_.reset();
       ++file_;
+      ++index_;
       return true;
     }
     const std::size_t objects = rawlog_->objectsRead();

@@ -46,6 +46,20 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   options.validate();
   Impl& m = *impl_;
   m.ne = linearizeDba(snapshot, options, so.depth_variances);
+  // Values that pass validation can still overflow double precision in the factor (e.g. a
+  // principal point of 1e154): refuse before the solver turns them into NaN covariances.
+  for (int a = 0; a < m.ne.S.numSlots(); ++a)
+    for (const auto& [b, block] : m.ne.S.row(a))
+      if (!block.allFinite()) {
+        const int ka = m.ne.keyframes[a], kb = m.ne.keyframes[b];
+        throw NumericalError(
+            "the information matrix has non-finite entries " +
+                (a == b ? "at keyframe " + std::to_string(ka)
+                        : "between keyframes " + std::to_string(ka) + " and " + std::to_string(kb)) +
+                ": the snapshot's values overflow double precision in the DBA factor (intrinsics, "
+                "poses or inverse depths far out of range)",
+            a == b ? std::vector<int>{ka} : std::vector<int>{ka, kb});
+      }
   m.depth_variances = so.depth_variances;
   m.H = snapshot.H;
   m.W = snapshot.W;
@@ -80,6 +94,15 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
             "a gauge that does not fix every DoF)",
         kf);
   }
+  // A finite, positive definite S so ill-conditioned that its inverse overflows.
+  std::vector<int> overflow;
+  for (int k : m.ne.keyframes)
+    if (!marginal(k).allFinite()) overflow.push_back(k);
+  if (!overflow.empty())
+    throw NumericalError("the covariances of keyframes " + joinKeyframes(overflow) +
+                             " overflow double precision (the information matrix is numerically "
+                             "singular)",
+                         overflow);
 }
 
 DbaCovariance::~DbaCovariance() = default;

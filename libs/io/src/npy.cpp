@@ -151,12 +151,16 @@ NpyArray parseNpy(const unsigned char* bytes, std::size_t size, const std::strin
 
 NpyArray readNpyStream(std::uint64_t available, const ByteReader& read,
                        const std::string& context) {
-  auto readExact = [&](unsigned char* dst, std::size_t n, const char* what) {
+  // Reads n bytes into dst; `before` and `total` give the bytes of the part (`what`) read before
+  // this call and its whole size, for the message.
+  auto readExact = [&](unsigned char* dst, std::size_t n, const char* what, std::size_t before = 0,
+                       std::size_t total = 0) {
     for (std::size_t got = 0; got < n;) {
       const std::size_t r = read(dst + got, n - got);
       if (r == 0)
-        throw InputError(context + ": truncated .npy " + what + " (" + std::to_string(got) +
-                         " of " + std::to_string(n) + " bytes)");
+        throw InputError(context + ": truncated .npy " + what + " (" +
+                         std::to_string(before + got) + " of " +
+                         std::to_string(total ? total : n) + " bytes)");
       got += r;
     }
   };
@@ -192,7 +196,7 @@ NpyArray readNpyStream(std::uint64_t available, const ByteReader& read,
     const std::size_t done = a.data.size();
     const std::size_t step = std::min(h.data_bytes - done, std::max(kStep, done));
     a.data.resize(done + step);
-    readExact(a.data.data() + done, step, "data");
+    readExact(a.data.data() + done, step, "data", done, h.data_bytes);
   }
   unsigned char extra = 0;
   if (read(&extra, 1) != 0) throw InputError(context + ": more data than the header declares");

@@ -31,7 +31,14 @@ size_t GzInputStream::Read(void* buffer, size_t count) {
     const unsigned chunk = static_cast<unsigned>(std::min<size_t>(count - done, INT_MAX));
     const int n = gzread(gz_, p + done, chunk);
     if (n < 0) return static_cast<size_t>(-1);
-    if (n == 0) break;
+    if (n == 0) {
+      // gzread also returns 0 when the compressed data ends early (truncated file or pipe);
+      // only gzerror tells that apart from the end of the data (Z_BUF_ERROR).
+      int status = Z_OK;
+      gzerror(gz_, &status);
+      if (status != Z_OK && done == 0) return static_cast<size_t>(-1);
+      break;
+    }
     done += static_cast<size_t>(n);
   }
   return done;

@@ -3,7 +3,8 @@
 // mrpt::io::CFileGZInputStream asks the file system for the file's size when it opens it, which
 // throws for a FIFO or /dev/stdin; this stream reads any readable path (gz-compressed or plain,
 // zlib detects which) and never seeks. Read() returns the bytes read, 0 at the end of the data,
-// and (size_t)-1 on a read error (damaged compressed data), as CFileGZInputStream does.
+// and (size_t)-1 on a read error (damaged compressed data, or compressed data that ends before
+// its end marker: a truncated file), as CFileGZInputStream does for damaged data.
 #pragma once
 
 #include <string>

@@ -22,7 +22,24 @@ std::string conciseMrptMessage(const std::string& what) {
     messages.erase(messages.begin());
   std::string out;
   for (const std::string& m : messages) out += (out.empty() ? "" : ": ") + m;
-  return out.empty() ? what : out;
+  return printable(out.empty() ? what : out);
+}
+
+std::string printable(const std::string& text) {
+  static const char* const kHex = "0123456789abcdef";
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u >= 0x20 && u < 0x7f) {
+      out += c;
+    } else {
+      out += "\\x";
+      out += kHex[u >> 4];
+      out += kHex[u & 15];
+    }
+  }
+  return out;
 }
 
 }  // namespace dbacov::mrpt_bridge

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "dbacov/core/errors.h"
+#include "dbacov/mrpt/mrpt_errors.h"
 
 namespace dbacov::mrpt_bridge {
 
@@ -12,7 +13,8 @@ std::size_t PeekStream::peek(std::size_t n) {
   while (buffer_.size() < n) {
     const std::size_t want = std::min(sizeof chunk, n - buffer_.size());
     const std::size_t got = in_->Read(chunk, want);
-    if (got == 0 || got > want) break;  // end of data, or a read error ((size_t)-1)
+    if (got > want) failed_ = true;  // a read error ((size_t)-1)
+    if (got == 0 || got > want) break;
     buffer_.insert(buffer_.end(), chunk, chunk + got);
   }
   return std::min(n, buffer_.size());
@@ -34,7 +36,11 @@ size_t PeekStream::Read(void* buffer, size_t count) {
 }
 
 std::optional<ObjectHeader> peekObjectHeader(PeekStream& in) {
-  if (in.peek(1) == 0) return std::nullopt;
+  if (in.peek(1) == 0) {
+    if (in.failed())
+      throw InputError("read error: the compressed data is damaged or ends early (truncated)");
+    return std::nullopt;
+  }
   const unsigned char first = in.peeked()[0];
   if (!(first & 0x80))
     throw InputError("not an object in MRPT's serialization format (a rawlog written by MRPT >= "
@@ -76,7 +82,7 @@ std::uint32_t readFrameStart(PeekStream& in, const ObjectHeader& h) {
 void readEndFlag(PeekStream& in, const ObjectHeader& h) {
   unsigned char flag = 0;
   if (!in.readExact(&flag, 1) || flag != 0x88)
-    throw InputError("the " + h.class_name + " object does not end with MRPT's end flag (damaged)");
+    throw InputError("the " + printable(h.class_name) + " object does not end with MRPT's end flag (damaged)");
 }
 
 }  // namespace dbacov::mrpt_bridge

@@ -23,7 +23,9 @@
 namespace dbacov::mrpt_bridge {
 
 /// Most observations accepted in one CSensoryFrame of a rawlog.
-constexpr std::uint32_t kMaxFrameObservations = 1u << 20;
+/// (A frame is held in memory while its observations are handed out; DBA rawlogs hold one
+/// snapshot per frame.)
+constexpr std::uint32_t kMaxFrameObservations = 1u << 16;
 
 /// An input stream whose next bytes can be looked at before they are read.
 class PeekStream : public mrpt::io::CStream {
@@ -33,6 +35,8 @@ class PeekStream : public mrpt::io::CStream {
   /// returns how many are available.
   std::size_t peek(std::size_t n);
   const std::vector<unsigned char>& peeked() const { return buffer_; }
+  /// True once the stream reported a read error while peeking (see GzInputStream::Read).
+  bool failed() const { return failed_; }
   /// Reads exactly `n` bytes into `out`; false if the stream ends first.
   bool readExact(void* out, std::size_t n);
 
@@ -45,6 +49,7 @@ class PeekStream : public mrpt::io::CStream {
  private:
   std::unique_ptr<mrpt::io::CStream> in_;
   std::vector<unsigned char> buffer_;  ///< bytes read from in_ but not yet handed out
+  bool failed_ = false;
 };
 
 struct ObjectHeader {
@@ -55,8 +60,8 @@ struct ObjectHeader {
 };
 
 /// The header of the next object, left in the stream (peeked); std::nullopt at the end of the
-/// stream. Throws InputError (saying what, not where) for a truncated header, a class name longer
-/// than MRPT accepts, or MRPT's pre-0.5.5 object format.
+/// stream. Throws InputError (saying what, not where) for a read error, a truncated header, a
+/// class name longer than MRPT accepts, or MRPT's pre-0.5.5 object format.
 std::optional<ObjectHeader> peekObjectHeader(PeekStream& in);
 
 /// After `header` of a CSensoryFrame (still in the stream): consumes it and the frame's fields up

@@ -87,12 +87,14 @@ mrpt::serialization::CSerializable::Ptr RawlogReader::readObject(bool in_frame) 
   if (!accepted_.empty() && !accepted_.count(h->short_name)) {
     std::string expected;
     for (const std::string& c : accepted_) expected += (expected.empty() ? "" : ", ") + c;
-    throw InputError("an object of class " + h->class_name + ", expected " + expected +
+    throw InputError("an object of class " + printable(h->class_name) + ", expected " + expected +
                      " (plain or in CSensoryFrames)");
   }
   auto arch = mrpt::serialization::archiveFrom(*stream_);
   mrpt::serialization::CSerializable::Ptr obj;
   arch >> obj;
+  // MRPT reads the class name "nullptr" as a null object: that would look like the end of the file.
+  if (!obj) throw InputError("a null object (class " + printable(h->class_name) + ")");
   return obj;
 }
 
@@ -124,7 +126,7 @@ bool RawlogSnapshotReader::next(Snapshot* out) {
   while (true) {
     while (!pending_.empty()) {
       auto [obj, entry] = std::move(pending_.front());
-      pending_.erase(pending_.begin());
+      pending_.pop_front();
       if (auto snap = std::dynamic_pointer_cast<CObservationDbaSnapshot>(obj)) {
         *out = std::move(snap->snapshot);
         out->source = path_ + "#" + std::to_string(entry);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <set>
@@ -52,7 +53,7 @@ class RawlogWriter {
 /// Reads the objects of a rawlog one at a time (constant memory), from any readable path (a
 /// gz-compressed or plain file, a FIFO, /dev/stdin). MRPT's deserializers trust the sizes they
 /// read, so the reader looks at each object's header first: it reads CSensoryFrame containers
-/// itself (at most 2^20 observations each, no frame inside a frame) and, after acceptOnly(),
+/// itself (at most 2^16 observations each, no frame inside a frame) and, after acceptOnly(),
 /// lets MRPT deserialize only the classes named there.
 class RawlogReader {
  public:
@@ -104,7 +105,7 @@ class RawlogSnapshotReader {
   std::string path_;
   RawlogReader reader_;
   std::int64_t next_index_;
-  std::vector<std::pair<mrpt::serialization::CSerializable::Ptr, std::size_t>> pending_;
+  std::deque<std::pair<mrpt::serialization::CSerializable::Ptr, std::size_t>> pending_;
 };
 
 }  // namespace dbacov::mrpt_bridge
