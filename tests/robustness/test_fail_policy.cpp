@@ -142,7 +142,7 @@ TEST(FailPolicy, AnOutputThatCannotBeCommittedDoesNotStopTheOthers) {
   EXPECT_EQ(lines[1] + "\n", kGaugeNote);
   EXPECT_EQ(lines[0], "dba-covariance: error: " + run.dir.file("g.graph") +
                           ": is a directory, expected a file path");
-  EXPECT_EQ(lines[2], "dba-covariance: 2 snapshots read, 2 processed, 0 failed");
+  EXPECT_EQ(lines[2], "dba-covariance: 2 snapshots read, 2 processed, 0 failed; 1 output not written");
   // The sinks after the graph were still committed.
   EXPECT_EQ(testing::splitLines(testing::readFile(run.dir.file("k.csv"))).size(), 1u + 12);
   EXPECT_NE(testing::readFile(run.dir.file("p.rawlog")), "previous p.rawlog");

@@ -54,7 +54,8 @@ results cannot be written is reported with its file, snapshot, key, keyframe or 
 --keep-going (the default) the other snapshots are still processed and every output is written;
 with --fail-fast the first failure stops the run and no output is written at all (previous files
 stay as they were). The last line on standard error sums up: "N snapshots read, P processed,
-F failed: K invalid input (files...), K numerical (file: reason), K output (...)".
+F failed: K invalid input (files...), K numerical (file: reason), K output (...)", and
+"; K outputs not written" when an output file could not be committed at the end.
 Exit status: 0 success, 1 when any snapshot or output failed, 2 on bad usage.)TXT";
 
 }  // namespace
@@ -152,7 +153,6 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
 
   RunSummary sum;
   const FailurePolicy policy = fail_fast ? FailurePolicy::FailFast : FailurePolicy::KeepGoing;
-  bool output_failed = false;
   const ThreadLimit thread_limit(opt.threads);
   try {
     const SnapshotInputs inputs(opt.inputs);
@@ -197,7 +197,9 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
             try {
               if (opt.fps) deriveKeyframeTimes(s, *opt.fps);
               for (const auto& sink : sinks) sink->check(s);
-              item.cov = std::make_unique<DbaCovariance>(s, engine, solver);
+              auto cov = std::make_unique<DbaCovariance>(s, engine, solver);
+              for (const auto& sink : sinks) sink->verify(s, *cov);
+              item.cov = std::move(cov);
             } catch (const std::exception& e) {
               item.error = e.what();
               item.error_kind = classifyFailure(e, false);
@@ -219,17 +221,19 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
             }
             return true;
           });
-      // After a --fail-fast stop the sinks are destroyed uncommitted: no output appears.
     }
     progress.clear();
+    // After a --fail-fast stop nothing is committed: the sinks are destroyed uncommitted and no
+    // output appears. Otherwise every output is committed, even when another one fails (under
+    // --fail-fast the first failed output stops the others).
     if (policy == FailurePolicy::KeepGoing || sum.failed() == 0) {
-      // Every output is committed even when another one fails.
       for (const auto& sink : sinks) {
         try {
           sink->commit();
         } catch (const std::exception& e) {
           err << "dba-covariance: error: " << e.what() << '\n';
-          output_failed = true;
+          sum.outputNotWritten();
+          if (policy == FailurePolicy::FailFast) break;
         }
       }
       if (graph && graph->uninformativePairs() && !opt.quiet)
@@ -246,7 +250,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       err << "; --fail-fast: stopped at the first failure, no output written";
     err << '\n';
   }
-  return sum.failed() || output_failed ? 1 : 0;
+  return sum.failed() || sum.outputsNotWritten() ? 1 : 0;
 }
 
 }  // namespace dbacov::app

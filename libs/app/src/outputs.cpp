@@ -134,26 +134,32 @@ void PoseRawlogSink::check(const Snapshot& s) const {
   keyframeTime(s, 0);  // throws when the snapshot has no keyframe times
 }
 
+std::vector<std::pair<int, PoseRawlogSink::Record>> PoseRawlogSink::records(
+    const Snapshot& s, const DbaCovariance& cov) const {
+  std::vector<int> kfs = cov.keyframes();
+  if (mode_ == EmitMode::Latest) kfs = {newestKeyframe(s)};
+  std::vector<std::pair<int, Record>> out;
+  for (int k : kfs)  // toPoseGaussian throws std::domain_error at pitch ±90°
+    out.emplace_back(k, Record{keyframeTime(s, k), mrpt_bridge::toPoseGaussian(cov.T_wc(k), cov.marginal(k))});
+  return out;
+}
+
+void PoseRawlogSink::verify(const Snapshot& s, const DbaCovariance& cov) const { records(s, cov); }
+
 void PoseRawlogSink::add(const Snapshot& s, const DbaCovariance& cov) {
-  auto record = [&](int k) {
-    return Record{keyframeTime(s, k), cov.T_wc(k), cov.marginal(k)};
-  };
-  switch (mode_) {
-    case EmitMode::Latest:
-      write(record(newestKeyframe(s)));
-      break;
-    case EmitMode::All:
-      for (int k : cov.keyframes()) write(record(k));
-      break;
-    case EmitMode::Final:
-      for (int k : cov.keyframes()) final_.insert_or_assign(s.tstamp[k], record(k));
-      break;
+  // Every record is converted before the first is written: a keyframe that cannot be converted
+  // fails the snapshot without leaving part of it in the rawlog.
+  for (auto& [k, r] : records(s, cov)) {
+    if (mode_ == EmitMode::Final)
+      final_.insert_or_assign(s.tstamp[k], std::move(r));
+    else
+      write(r);
   }
 }
 
 void PoseRawlogSink::write(const Record& r) {
   mrpt::obs::CObservationRobotPose obs;
-  obs.pose = mrpt_bridge::toPoseGaussian(r.T_wc, r.Sigma);
+  obs.pose = r.pose;
   obs.timestamp = mrpt::Clock::fromDouble(r.time);
   obs.sensorLabel = label_;
   writer_->write(obs);

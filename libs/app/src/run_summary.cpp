@@ -70,6 +70,9 @@ std::string RunSummary::line() const {
     s += ")";
     sep = ", ";
   }
+  if (outputs_not_written_)
+    s += "; " + std::to_string(outputs_not_written_) +
+         (outputs_not_written_ == 1 ? " output not written" : " outputs not written");
   return s;
 }
 

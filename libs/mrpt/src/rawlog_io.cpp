@@ -3,14 +3,13 @@
 #include <filesystem>
 #include <optional>
 
-#include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/io/CMemoryStream.h>
 #include <mrpt/obs/CSensoryFrame.h>
 #include <mrpt/serialization/CArchive.h>
 
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
-#include "gz_input_stream.h"
+#include "gz_streams.h"
 #include "dbacov/mrpt/mrpt_errors.h"
 #include "object_guard.h"
 
@@ -18,9 +17,7 @@ namespace dbacov::mrpt_bridge {
 
 RawlogWriter::RawlogWriter(const std::string& path)
     : path_(path), file_(std::make_unique<io::AtomicOutputFile>(path)) {
-  gz_ = std::make_unique<mrpt::io::CFileGZOutputStream>();
-  if (!gz_->open(file_->writePath()))
-    throw InputError(path_ + ": cannot open the temporary rawlog output for writing");
+  gz_ = std::make_unique<GzOutputStream>(file_->writePath(), path_);
 }
 
 RawlogWriter::~RawlogWriter() = default;
@@ -32,7 +29,8 @@ void RawlogWriter::write(const mrpt::serialization::CSerializable& object) {
     arch << object;
   } catch (const std::exception& e) {
     // The stream may hold part of the entry: nothing more is written, and commit() refuses.
-    failure_ = path_ + ": writing entry " + std::to_string(count_) + " failed: " + e.what();
+    failure_ = path_ + ": writing entry " + std::to_string(count_) + " failed: " +
+               conciseMrptMessage(e.what());
     throw InputError(failure_);
   }
   ++count_;
@@ -40,7 +38,11 @@ void RawlogWriter::write(const mrpt::serialization::CSerializable& object) {
 
 void RawlogWriter::commit() {
   if (!failure_.empty()) throw InputError(failure_ + " (the rawlog is not written)");
-  gz_->close();
+  try {
+    gz_->close();
+  } catch (const InputError& e) {
+    throw InputError(std::string(e.what()) + " (the rawlog is not written)");
+  }
   file_->commit();
 }
 

@@ -7,6 +7,10 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include <mrpt/poses/CPose3DPDFGaussian.h>
 
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/pose_graph.h"
@@ -26,7 +30,12 @@ class OutputSink {
   /// Checks, before anything is computed or written, that the sink can take this snapshot
   /// (e.g. it has keyframe times). Throws InputError naming the snapshot otherwise.
   virtual void check(const Snapshot& /*snapshot*/) const {}
-  /// Adds one snapshot's results. Throws InputError on I/O failure.
+  /// Checks, once the results are computed (on any thread) and before any sink adds them, that
+  /// add() can take them: throws what add() would throw for these values (e.g. std::domain_error
+  /// for a pose MRPT's format cannot hold), so that a snapshot fails as a whole and no output
+  /// holds part of it. add() may then fail only for I/O.
+  virtual void verify(const Snapshot& /*snapshot*/, const DbaCovariance& /*cov*/) const {}
+  /// Adds one snapshot's results (verified). Throws InputError on I/O failure.
   virtual void add(const Snapshot& snapshot, const DbaCovariance& cov) = 0;
   /// Makes the output appear (the last step of a run). Throws InputError on I/O failure.
   virtual void commit() = 0;
@@ -104,15 +113,17 @@ class PoseRawlogSink final : public OutputSink {
   PoseRawlogSink(const std::string& path, std::string label, EmitMode mode);
   ~PoseRawlogSink() override;
   void check(const Snapshot& snapshot) const override;
+  void verify(const Snapshot& snapshot, const DbaCovariance& cov) const override;
   void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
   void commit() override;
 
  private:
   struct Record {
     double time;
-    Eigen::Isometry3d T_wc;
-    Matrix6d Sigma;
+    mrpt::poses::CPose3DPDFGaussian pose;
   };
+  /// The records of the keyframes that `mode_` emits for this snapshot (keyframe, record).
+  std::vector<std::pair<int, Record>> records(const Snapshot& s, const DbaCovariance& cov) const;
   void write(const Record& r);
 
   std::unique_ptr<mrpt_bridge::RawlogWriter> writer_;

@@ -40,11 +40,16 @@ class RunSummary {
   /// error; for numerical failures its first clause is kept as the reason.
   void fail(FailureKind kind, const std::string& snapshot, const std::string& message);
   std::size_t failed() const { return failed_; }
+  /// Records that an output file could not be committed at the end of the run (its error is
+  /// reported where it happens).
+  void outputNotWritten() { ++outputs_not_written_; }
+  std::size_t outputsNotWritten() const { return outputs_not_written_; }
 
   /// "N snapshots read, P processed, F failed", followed when F > 0 by the failures grouped by
   /// kind: ": 2 invalid input (b.npz, c.npz), 1 numerical (d.npz: no gauge reaches keyframes 4,
   /// 5)". Each group names at most three snapshots (file names without directories), then
-  /// "and K more"; numerical failures also give their reason.
+  /// "and K more"; numerical failures also give their reason. Then, when some output could not
+  /// be committed: "; K outputs not written".
   std::string line() const;
 
  private:
@@ -53,6 +58,7 @@ class RunSummary {
     std::vector<std::string> examples;
   };
   std::size_t failed_ = 0;
+  std::size_t outputs_not_written_ = 0;
   std::map<FailureKind, Group> groups_;
 };
 

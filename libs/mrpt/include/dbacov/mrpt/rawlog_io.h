@@ -20,12 +20,12 @@ namespace dbacov::io {
 class AtomicOutputFile;
 }
 namespace mrpt::io {
-class CFileGZOutputStream;
 class CStream;
 }  // namespace mrpt::io
 
 namespace dbacov::mrpt_bridge {
 
+class GzOutputStream;
 class PeekStream;
 
 /// Writes serializable objects, one after another, into a gz-compressed rawlog that appears at
@@ -46,7 +46,7 @@ class RawlogWriter {
   std::string failure_;  ///< set by a failed write()
   std::string path_;
   std::unique_ptr<io::AtomicOutputFile> file_;
-  std::unique_ptr<mrpt::io::CFileGZOutputStream> gz_;
+  std::unique_ptr<GzOutputStream> gz_;
   std::size_t count_ = 0;
 };
 

@@ -1,0 +1,68 @@
+// Private to dbacov_mrpt: MRPT streams over zlib's gzread / gzwrite, for rawlogs.
+//
+// GzInputStream: mrpt::io::CFileGZInputStream asks the file system for the file's size when it opens it, which
+// throws for a FIFO or /dev/stdin; this stream reads any readable path (gz-compressed or plain,
+// zlib detects which) and never seeks. Read() returns the bytes read, 0 at the end of the data,
+// and (size_t)-1 on a read error (damaged compressed data, or compressed data that ends before
+// its end marker: a truncated file), as CFileGZInputStream does for damaged data.
+//
+// GzOutputStream: mrpt::io::CFileGZOutputStream::close() ignores what gzclose() returns, so a
+// failure to write the last compressed block and the trailer (disk full, quota) goes unnoticed and
+// a damaged rawlog would be committed. close() here throws instead, and so does Write().
+#pragma once
+
+#include <string>
+
+#include <mrpt/io/CStream.h>
+
+struct gzFile_s;
+
+namespace dbacov::mrpt_bridge {
+
+class GzInputStream : public mrpt::io::CStream {
+ public:
+  /// Opens `path`; throws InputError naming it (and the system's reason) when it cannot.
+  explicit GzInputStream(const std::string& path);
+  ~GzInputStream() override;
+  GzInputStream(const GzInputStream&) = delete;
+  GzInputStream& operator=(const GzInputStream&) = delete;
+
+  size_t Read(void* buffer, size_t count) override;
+  size_t Write(const void* buffer, size_t count) override;
+  uint64_t Seek(int64_t offset, TSeekOrigin origin) override;
+  uint64_t getTotalBytesCount() const override { return 0; }  ///< unknown (may be a pipe)
+  uint64_t getPosition() const override;
+  std::string getStreamDescription() const override { return "rawlog " + path_; }
+
+ private:
+  std::string path_;
+  gzFile_s* gz_ = nullptr;
+};
+
+class GzOutputStream : public mrpt::io::CStream {
+ public:
+  /// Creates `path` (gzip, compression level 1, as MRPT's rawlogs); messages name the file
+  /// `name` (e.g. the final path of an atomic output). InputError on failure.
+  GzOutputStream(const std::string& path, const std::string& name);
+  /// Without close(): the stream is abandoned (its file is the caller's to discard).
+  ~GzOutputStream() override;
+  GzOutputStream(const GzOutputStream&) = delete;
+  GzOutputStream& operator=(const GzOutputStream&) = delete;
+
+  size_t Read(void* buffer, size_t count) override;
+  /// Writes every byte or throws InputError naming the path and zlib's or the system's reason.
+  size_t Write(const void* buffer, size_t count) override;
+  uint64_t Seek(int64_t offset, TSeekOrigin origin) override;
+  uint64_t getTotalBytesCount() const override { return 0; }
+  uint64_t getPosition() const override;
+  std::string getStreamDescription() const override { return "rawlog " + name_; }
+
+  /// Flushes the last block and the gzip trailer; InputError when that fails.
+  void close();
+
+ private:
+  std::string name_;
+  gzFile_s* gz_ = nullptr;
+};
+
+}  // namespace dbacov::mrpt_bridge
