@@ -97,6 +97,9 @@ void covarianceFigure(detail::FigureBatch& batch, const SequenceHistory& h,
   earlier << "NaN NaN\n";  // keeps gnuplot quiet about empty files
   current << "NaN NaN\n";
   det << "NaN NaN 0\n";
+  detail::finishData(earlier, "edges_earlier.dat");
+  detail::finishData(current, "edges_last.dat");
+  detail::finishData(det, "det.dat");
   std::ostream& g = batch.script();
   g << "set terminal pngcairo size 1500,640 font 'DejaVu Sans,12' noenhanced\n"
     << "set output " << batch.output(path) << "\n"
@@ -145,6 +148,7 @@ void sigmaFigure(detail::FigureBatch& batch, const SequenceHistory& h, const std
     for (double v : w.sigma) sig << ' ' << (v > 0 ? detail::num(v) : "NaN");
     sig << '\n';
   }
+  detail::finishData(sig, "sigma.dat");
   const std::string data = gnuplotQuote(batch.data("sigma.dat"));
   // Log scale only when a panel's values span more than a factor of 20 (else a linear axis from
   // 0 is easier to read).
@@ -220,8 +224,9 @@ void writeSequencePlots(const SequenceHistory& h, const std::map<double, DepthMa
       detail::depthFigure(
           *batch, m, tstamp, n++,
           maps_dir + "/" + std::to_string(m.snapshot) + "_" + std::to_string(m.keyframe) + ".png");
-      // A figure holds three descriptors until its batch runs: stay far below the usual 1024.
-      if (batch->numOutputs() >= kFiguresPerBatch) {
+      // A figure holds three descriptors until its batch runs (two data files, the picture; a
+      // map without finite values only its data files): stay far below the usual 1024.
+      if (batch->numDescriptors() >= 3 * kFiguresPerBatch) {
         batch->run("--plots " + dir);
         batch = std::make_unique<detail::FigureBatch>();
       }

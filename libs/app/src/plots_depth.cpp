@@ -40,6 +40,7 @@ Range writeMatrix(const std::string& path, const std::vector<float>& v, int H, i
     }
     os << '\n';
   }
+  finishData(os, path);
   return r;
 }
 
@@ -72,6 +73,10 @@ std::string sequenceTitle(const SequenceHistory& h) {
 std::string timeLabel(bool times) {
   return times ? "time since the first keyframe [s]"
                : "keyframe time stamp (DROID tstamp: image index)";
+}
+
+void finishData(std::ostream& os, const std::string& name) {
+  if (!os.flush()) throw InputError("cannot write the figure data " + name + " (in memory)");
 }
 
 std::string FigureBatch::data(const std::string& name) {

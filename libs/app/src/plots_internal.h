@@ -25,6 +25,8 @@ class FigureBatch {
   /// Creates the temporary for `final_path`; returns it quoted for gnuplot's `set output`.
   std::string output(const std::string& final_path);
   std::size_t numOutputs() const { return outputs_.size(); }
+  /// Descriptors the batch holds open until run(): its data files and outputs.
+  std::size_t numDescriptors() const { return data_.size() + outputs_.size(); }
   /// Runs gnuplot (if there is any figure) and commits every output. Throws InputError naming
   /// `what` on failure; then no output is committed.
   void run(const std::string& what);
@@ -34,6 +36,10 @@ class FigureBatch {
   std::ostringstream script_;
   std::vector<std::unique_ptr<io::AtomicOutputFile>> outputs_;
 };
+
+/// Checks that the data written to `os` (a figure's data file `name`) all arrived; InputError
+/// otherwise (e.g. no descriptor left to open the in-memory file).
+void finishData(std::ostream& os, const std::string& name);
 
 /// A number for gnuplot's data files (%.9g; "NaN" = missing).
 std::string num(double v);

@@ -41,9 +41,11 @@ void DeferredFiles::add(const std::string& path, const void* data, std::size_t s
     const ssize_t n = ::pwrite(fd_, p + done, std::min<std::size_t>(size - done, std::size_t{1} << 30),
                                static_cast<off_t>(end_ + done));
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0)
+    if (n <= 0) {
+      const int error = n < 0 ? errno : EIO;
       throw InputError(path + ": cannot queue the output in a spool file in '" + dir_ +
-                       "': " + std::strerror(n < 0 ? errno : EIO));
+                       "': " + std::strerror(error));
+    }
     done += static_cast<std::size_t>(n);
   }
   end_ += size;
@@ -54,22 +56,34 @@ void DeferredFiles::commit() {
   if (committed_) throw std::logic_error("DeferredFiles::commit: already committed");
   committed_ = true;
   std::vector<char> buffer;
+  std::string first_error;
+  std::size_t failures = 0;
   for (const std::string& path : order_) {
-    const Extent e = files_.at(path);
-    buffer.resize(static_cast<std::size_t>(e.size));
-    for (std::size_t done = 0; done < buffer.size();) {
-      const ssize_t n = ::pread(fd_, buffer.data() + done, buffer.size() - done,
-                                static_cast<off_t>(e.offset + done));
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0)
-        throw InputError(path + ": cannot read the queued output back from the spool file: " +
-                         std::strerror(n < 0 ? errno : EIO));
-      done += static_cast<std::size_t>(n);
+    try {
+      const Extent e = files_.at(path);
+      buffer.resize(static_cast<std::size_t>(e.size));
+      for (std::size_t done = 0; done < buffer.size();) {
+        const ssize_t n = ::pread(fd_, buffer.data() + done, buffer.size() - done,
+                                  static_cast<off_t>(e.offset + done));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+          const int error = n < 0 ? errno : EIO;
+          throw InputError(path + ": cannot read the queued output back from the spool file: " +
+                           std::strerror(error));
+        }
+        done += static_cast<std::size_t>(n);
+      }
+      AtomicOutputFile out(path);
+      out.write(buffer.data(), buffer.size());
+      out.commit();
+    } catch (const InputError& e) {  // the other files are still written
+      if (failures++ == 0) first_error = e.what();
     }
-    AtomicOutputFile out(path);
-    out.write(buffer.data(), buffer.size());
-    out.commit();
   }
+  if (failures)
+    throw InputError(first_error + (failures > 1 ? " (and " + std::to_string(failures - 1) +
+                                                       " more files not written)"
+                                                 : std::string()));
 }
 
 }  // namespace dbacov::io

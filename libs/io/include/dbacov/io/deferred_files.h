@@ -7,7 +7,8 @@
 //     leaves nothing behind. Without O_TMPFILE the spool is a named temporary that is unlinked
 //     right after it is created. A later add() for the same path replaces the earlier contents.
 //   - commit() writes every file atomically (AtomicOutputFile), in the order of their first add():
-//     each file is the previous version or the complete new one, never a partial write.
+//     each file is the previous version or the complete new one, never a partial write; a file
+//     that fails does not stop the others.
 //   - Destroying the object without commit() writes nothing (the spool disappears).
 // Errors (spool cannot be created or written, a file cannot be written) throw dbacov::InputError
 // naming the path. Misuse (add or commit after commit) throws std::logic_error. Not thread-safe.
@@ -39,8 +40,8 @@ class DeferredFiles {
   /// Number of distinct files queued.
   std::size_t size() const { return order_.size(); }
 
-  /// Writes every queued file atomically. Throws InputError at the first failure (the files
-  /// before it are written, the others not).
+  /// Writes every queued file atomically. A file that cannot be written does not stop the
+  /// others; then InputError with the first failure (and how many more failed).
   void commit();
 
  private:
