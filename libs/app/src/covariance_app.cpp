@@ -173,6 +173,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
     detail::appendVisualSinks(sinks, visual);  // last: their commit renders (slowest)
     SolverOptions solver = opt.solverOptions();
     for (const auto& sink : sinks) solver.depth_variances |= sink->needsDepthVariances();
+    std::vector<bool> broken(sinks.size(), false);  ///< outputs given up after a write failure
 
     Progress progress(err, inputs.knownCount(), !opt.quiet);
     // `what` is the whole message (it names the file/snapshot), `reason` the error alone.
@@ -213,12 +214,21 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
             progress.step(s.source);
             if (!item.cov)
               return report(item.error_kind, s.source, name(s) + ": " + item.error, item.error);
-            try {
-              for (const auto& sink : sinks) sink->add(s, *item.cov);
-              ++sum.processed;
-            } catch (const std::exception& e) {
-              return report(classifyFailure(e, true), s.source, name(s) + ": " + e.what(), e.what());
+            // Results are verified, so add() fails only when an output cannot be written (disk
+            // full): that output is given up (reported once, not committed) and the others go on.
+            bool added = true;
+            for (std::size_t i = 0; i < sinks.size(); ++i) {
+              if (broken[i]) continue;
+              try {
+                sinks[i]->add(s, *item.cov);
+              } catch (const std::exception& e) {
+                broken[i] = true;
+                added = false;
+                if (!report(classifyFailure(e, true), s.source, name(s) + ": " + e.what(), e.what()))
+                  return false;
+              }
             }
+            if (added) ++sum.processed;
             return true;
           });
     }
@@ -227,9 +237,13 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
     // output appears. Otherwise every output is committed, even when another one fails (under
     // --fail-fast the first failed output stops the others).
     if (policy == FailurePolicy::KeepGoing || sum.failed() == 0) {
-      for (const auto& sink : sinks) {
+      for (std::size_t i = 0; i < sinks.size(); ++i) {
+        if (broken[i]) {  // reported when it failed
+          sum.outputNotWritten();
+          continue;
+        }
         try {
-          sink->commit();
+          sinks[i]->commit();
         } catch (const std::exception& e) {
           err << "dba-covariance: error: " << e.what() << '\n';
           sum.outputNotWritten();

@@ -30,18 +30,11 @@ std::string relativeCsvHeader() {
   return "snapshot,from,to,tx,ty,tz,qx,qy,qz,qw," + upperTriangleNames("cov_");
 }
 
-CsvSink::CsvSink(const std::string& path, const std::string& header)
-    : file_(path), os_(file_.writePath(), std::ios::binary) {
-  if (!os_) throw InputError(path + ": cannot open the temporary output for writing");
-  os_ << header << '\n';
+CsvSink::CsvSink(const std::string& path, const std::string& header) : file_(path) {
+  append(header + '\n');
 }
 
-void CsvSink::commit() {
-  os_.flush();
-  if (!os_) throw InputError(file_.finalPath() + ": write failed");
-  os_.close();
-  file_.commit();
-}
+void CsvSink::commit() { file_.commit(); }
 
 KeyframeCsvSink::KeyframeCsvSink(const std::string& path) : CsvSink(path, keyframeCsvHeader()) {}
 
@@ -59,7 +52,7 @@ void KeyframeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
       rows << ',' << formatDouble(v);
     rows << ',' << upperTriangleValues(Sigma) << '\n';
   }
-  os() << rows.str();
+  append(rows.str());
 }
 
 RelativeCsvSink::RelativeCsvSink(const std::string& path) : CsvSink(path, relativeCsvHeader()) {}
@@ -70,7 +63,7 @@ void RelativeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
     rows << s.label() << ',' << a << ',' << b << ','
          << poseValues(cov.T_wc(a).inverse() * cov.T_wc(b)) << ','
          << upperTriangleValues(cov.relative(a, b)) << '\n';
-  os() << rows.str();
+  append(rows.str());
 }
 
 std::string checkOutputDirectory(const std::string& dir, const std::string& what) {

@@ -92,7 +92,10 @@ size_t GzOutputStream::Write(const void* buffer, size_t count) {
     const unsigned chunk = static_cast<unsigned>(std::min<size_t>(count - done, INT_MAX));
     errno = 0;
     const int n = gzwrite(gz_, p + done, chunk);
-    if (n <= 0) throw InputError(name_ + ": write failed: " + gzReason(gz_, Z_OK));
+    if (n <= 0) {
+      failure_ = name_ + ": write failed: " + gzReason(gz_, Z_OK);
+      throw InputError(failure_);
+    }
     done += static_cast<size_t>(n);
   }
   return count;

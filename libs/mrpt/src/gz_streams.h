@@ -59,9 +59,12 @@ class GzOutputStream : public mrpt::io::CStream {
 
   /// Flushes the last block and the gzip trailer; InputError when that fails.
   void close();
+  /// The message of the last failed Write() ("" if none).
+  const std::string& failure() const { return failure_; }
 
  private:
   std::string name_;
+  std::string failure_;
   gzFile_s* gz_ = nullptr;
 };
 

@@ -29,8 +29,11 @@ void RawlogWriter::write(const mrpt::serialization::CSerializable& object) {
     arch << object;
   } catch (const std::exception& e) {
     // The stream may hold part of the entry: nothing more is written, and commit() refuses.
-    failure_ = path_ + ": writing entry " + std::to_string(count_) + " failed: " +
-               conciseMrptMessage(e.what());
+    // (MRPT's archive wraps what the stream throws; the stream's own message is the clearer.)
+    failure_ = !gz_->failure().empty()
+                   ? gz_->failure() + " (at entry " + std::to_string(count_) + ")"
+                   : path_ + ": writing entry " + std::to_string(count_) +
+                         " failed: " + conciseMrptMessage(e.what());
     throw InputError(failure_);
   }
   ++count_;

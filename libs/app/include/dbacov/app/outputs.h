@@ -43,18 +43,18 @@ class OutputSink {
   virtual bool needsDepthVariances() const { return false; }
 };
 
-/// A text table streamed into an atomic output file.
+/// A text table written into an atomic output file, one snapshot's rows at a time (a write error
+/// is an InputError naming the file and the system's reason, at the snapshot where it happens).
 class CsvSink : public OutputSink {
  public:
   CsvSink(const std::string& path, const std::string& header);
   void commit() override;
 
  protected:
-  std::ostream& os() { return os_; }
+  void append(const std::string& rows) { file_.write(rows.data(), rows.size()); }
 
  private:
   io::AtomicOutputFile file_;
-  std::ofstream os_;
 };
 
 /// `--csv`: one row per (snapshot, graph keyframe), header keyframeCsvHeader().
