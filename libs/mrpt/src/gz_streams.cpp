@@ -7,22 +7,37 @@
 #include <climits>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 
 #include "dbacov/core/errors.h"
 
 namespace dbacov::mrpt_bridge {
 
-GzInputStream::GzInputStream(const std::string& path) : path_(path) {
+GzFileStream::GzFileStream(const std::string& path, std::string name, const char* mode,
+                           const char* what)
+    : name_(std::move(name)) {
   errno = 0;
-  gz_ = gzopen(path.c_str(), "rb");
+  gz_ = gzopen(path.c_str(), mode);
   if (!gz_)
-    throw InputError(path + ": cannot open rawlog for reading: " +
+    throw InputError(name_ + ": cannot open " + what + ": " +
                      (errno ? std::strerror(errno) : "out of memory"));
 }
 
-GzInputStream::~GzInputStream() {
+GzFileStream::~GzFileStream() {
   if (gz_) gzclose(gz_);
 }
+
+uint64_t GzFileStream::Seek(int64_t, TSeekOrigin) {
+  throw std::logic_error("GzFileStream::Seek: " + name_ + " is read or written sequentially");
+}
+
+uint64_t GzFileStream::getPosition() const {
+  const z_off_t at = gz_ ? gztell(gz_) : -1;
+  return at < 0 ? 0 : static_cast<uint64_t>(at);
+}
+
+GzInputStream::GzInputStream(const std::string& path)
+    : GzFileStream(path, path, "rb", "rawlog for reading") {}
 
 size_t GzInputStream::Read(void* buffer, size_t count) {
   auto* p = static_cast<unsigned char*>(buffer);
@@ -45,23 +60,13 @@ size_t GzInputStream::Read(void* buffer, size_t count) {
 }
 
 size_t GzInputStream::Write(const void*, size_t) {
-  throw std::logic_error("GzInputStream::Write: " + path_ + " is read-only");
-}
-
-uint64_t GzInputStream::Seek(int64_t, TSeekOrigin) {
-  throw std::logic_error("GzInputStream::Seek: " + path_ + " is read sequentially");
-}
-
-uint64_t GzInputStream::getPosition() const {
-  const z_off_t at = gztell(gz_);
-  return at < 0 ? 0 : static_cast<uint64_t>(at);
+  throw std::logic_error("GzInputStream::Write: " + name_ + " is read-only");
 }
 
 namespace {
 
 /// zlib's description of the stream's last error, or the system's when it is an I/O error.
-std::string gzReason(gzFile_s* gz, int status) {
-  if (status == Z_ERRNO || !gz) return std::strerror(errno);
+std::string gzReason(gzFile_s* gz) {
   int code = Z_OK;
   const char* message = gzerror(gz, &code);
   return code == Z_ERRNO ? std::strerror(errno) : std::string(message ? message : "zlib error");
@@ -69,17 +74,8 @@ std::string gzReason(gzFile_s* gz, int status) {
 
 }  // namespace
 
-GzOutputStream::GzOutputStream(const std::string& path, const std::string& name) : name_(name) {
-  errno = 0;
-  gz_ = gzopen(path.c_str(), "wb1");
-  if (!gz_)
-    throw InputError(name + ": cannot open the rawlog output for writing: " +
-                     (errno ? std::strerror(errno) : "out of memory"));
-}
-
-GzOutputStream::~GzOutputStream() {
-  if (gz_) gzclose(gz_);
-}
+GzOutputStream::GzOutputStream(const std::string& path, const std::string& name)
+    : GzFileStream(path, name, "wb1", "the rawlog output for writing") {}
 
 size_t GzOutputStream::Read(void*, size_t) {
   throw std::logic_error("GzOutputStream::Read: " + name_ + " is write-only");
@@ -93,21 +89,12 @@ size_t GzOutputStream::Write(const void* buffer, size_t count) {
     errno = 0;
     const int n = gzwrite(gz_, p + done, chunk);
     if (n <= 0) {
-      failure_ = name_ + ": write failed: " + gzReason(gz_, Z_OK);
+      failure_ = name_ + ": write failed: " + gzReason(gz_);
       throw InputError(failure_);
     }
     done += static_cast<size_t>(n);
   }
   return count;
-}
-
-uint64_t GzOutputStream::Seek(int64_t, TSeekOrigin) {
-  throw std::logic_error("GzOutputStream::Seek: " + name_ + " is written sequentially");
-}
-
-uint64_t GzOutputStream::getPosition() const {
-  const z_off_t at = gz_ ? gztell(gz_) : -1;
-  return at < 0 ? 0 : static_cast<uint64_t>(at);
 }
 
 void GzOutputStream::close() {

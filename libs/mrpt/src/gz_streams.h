@@ -19,43 +19,46 @@ struct gzFile_s;
 
 namespace dbacov::mrpt_bridge {
 
-class GzInputStream : public mrpt::io::CStream {
+/// What both streams share: the gzFile, opened by the constructor and closed by the destructor;
+/// no seeking; the position in the uncompressed data.
+class GzFileStream : public mrpt::io::CStream {
  public:
-  /// Opens `path`; throws InputError naming it (and the system's reason) when it cannot.
-  explicit GzInputStream(const std::string& path);
-  ~GzInputStream() override;
-  GzInputStream(const GzInputStream&) = delete;
-  GzInputStream& operator=(const GzInputStream&) = delete;
+  ~GzFileStream() override;
+  GzFileStream(const GzFileStream&) = delete;
+  GzFileStream& operator=(const GzFileStream&) = delete;
 
-  size_t Read(void* buffer, size_t count) override;
-  size_t Write(const void* buffer, size_t count) override;
-  uint64_t Seek(int64_t offset, TSeekOrigin origin) override;
+  uint64_t Seek(int64_t offset, TSeekOrigin origin) override;  ///< throws std::logic_error
   uint64_t getTotalBytesCount() const override { return 0; }  ///< unknown (may be a pipe)
   uint64_t getPosition() const override;
-  std::string getStreamDescription() const override { return "rawlog " + path_; }
+  std::string getStreamDescription() const override { return "rawlog " + name_; }
 
- private:
-  std::string path_;
+ protected:
+  /// gzopen(path, mode); InputError "<name>: cannot open <what>: <reason>" on failure.
+  GzFileStream(const std::string& path, std::string name, const char* mode, const char* what);
+
+  std::string name_;  ///< the file as messages name it
   gzFile_s* gz_ = nullptr;
 };
 
-class GzOutputStream : public mrpt::io::CStream {
+class GzInputStream : public GzFileStream {
  public:
-  /// Creates `path` (gzip, compression level 1, as MRPT's rawlogs); messages name the file
-  /// `name` (e.g. the final path of an atomic output). InputError on failure.
-  GzOutputStream(const std::string& path, const std::string& name);
-  /// Without close(): the stream is abandoned (its file is the caller's to discard).
-  ~GzOutputStream() override;
-  GzOutputStream(const GzOutputStream&) = delete;
-  GzOutputStream& operator=(const GzOutputStream&) = delete;
+  /// Opens `path`; throws InputError naming it (and the system's reason) when it cannot.
+  explicit GzInputStream(const std::string& path);
 
   size_t Read(void* buffer, size_t count) override;
-  /// Writes every byte or throws InputError naming the path and zlib's or the system's reason.
+  size_t Write(const void* buffer, size_t count) override;  ///< throws std::logic_error
+};
+
+class GzOutputStream : public GzFileStream {
+ public:
+  /// Creates `path` (gzip, compression level 1, as MRPT's rawlogs); messages name the file
+  /// `name` (e.g. the final path of an atomic output). InputError on failure. Destroyed without
+  /// close(), the stream is abandoned (its file is the caller's to discard).
+  GzOutputStream(const std::string& path, const std::string& name);
+
+  size_t Read(void* buffer, size_t count) override;  ///< throws std::logic_error
+  /// Writes every byte or throws InputError naming the file and zlib's or the system's reason.
   size_t Write(const void* buffer, size_t count) override;
-  uint64_t Seek(int64_t offset, TSeekOrigin origin) override;
-  uint64_t getTotalBytesCount() const override { return 0; }
-  uint64_t getPosition() const override;
-  std::string getStreamDescription() const override { return "rawlog " + name_; }
 
   /// Flushes the last block and the gzip trailer; InputError when that fails.
   void close();
@@ -63,9 +66,7 @@ class GzOutputStream : public mrpt::io::CStream {
   const std::string& failure() const { return failure_; }
 
  private:
-  std::string name_;
   std::string failure_;
-  gzFile_s* gz_ = nullptr;
 };
 
 }  // namespace dbacov::mrpt_bridge
