@@ -1,7 +1,5 @@
 #include "dbacov/app/outputs.h"
 
-#include <fcntl.h>
-#include <stdlib.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -76,17 +74,9 @@ std::string checkOutputDirectory(const std::string& dir, const std::string& what
   if (!fs::is_directory(p, ec))
     throw InputError(dir + ": cannot use as the " + what + ": " + p.string() +
                      " exists and is not a directory");
-  // Creating an unnamed temporary file checks that files can be made there (and leaves nothing
-  // behind, whenever the process ends). Without O_TMPFILE: a named one, removed at once.
-  int fd = -1;
-#ifdef O_TMPFILE
-  fd = ::open(p.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0600);
-#endif
-  if (fd < 0 && errno != EACCES && errno != EROFS && errno != ENOENT && errno != ENOTDIR) {
-    std::string probe = p.string() + "/.dbacov_probe.XXXXXX";
-    fd = ::mkstemp(probe.data());
-    if (fd >= 0) ::unlink(probe.c_str());
-  }
+  // Creating a scratch file checks that files can be made there (and leaves nothing behind,
+  // whenever the process ends).
+  const int fd = io::openScratchFile(p.string());
   if (fd < 0) {
     const int error = errno;
     throw InputError(dir + ": cannot use as the " + what + ": cannot create files in '" +

@@ -180,6 +180,21 @@ void AtomicOutputFile::discard() noexcept {
   temp_name_.clear();
 }
 
+int openScratchFile(const std::string& dir) {
+  int fd = -1;
+#ifdef O_TMPFILE
+  fd = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+#endif
+  if (fd < 0) {
+    std::string templ = dir + "/.dbacov_scratch.XXXXXX";
+    fd = ::mkstemp(templ.data());
+    if (fd < 0) return -1;
+    ::unlink(templ.c_str());
+    ::fcntl(fd, F_SETFD, FD_CLOEXEC);
+  }
+  return fd;
+}
+
 void writeFileAtomically(const std::string& path,
                          const std::function<void(std::ostream&)>& writer) {
   AtomicOutputFile out(path);

@@ -1,7 +1,6 @@
 // DeferredFiles: an unnamed spool file, then one AtomicOutputFile per queued file. See the header.
 #include "dbacov/io/deferred_files.h"
 
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,19 +13,9 @@
 namespace dbacov::io {
 
 DeferredFiles::DeferredFiles(const std::string& spool_dir) : dir_(spool_dir.empty() ? "." : spool_dir) {
-#ifdef O_TMPFILE
-  fd_ = ::open(dir_.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
-#endif
-  if (fd_ < 0) {
-    // No O_TMPFILE here: a named temporary, unlinked at once (only a crash within these two
-    // calls could leave it behind).
-    std::string templ = dir_ + "/.dbacov_spool.XXXXXX";
-    fd_ = ::mkstemp(templ.data());
-    if (fd_ < 0)
-      throw InputError(dir_ + ": cannot create a temporary spool file: " + std::strerror(errno));
-    ::unlink(templ.c_str());
-    ::fcntl(fd_, F_SETFD, FD_CLOEXEC);
-  }
+  fd_ = openScratchFile(dir_);
+  if (fd_ < 0)
+    throw InputError(dir_ + ": cannot create a temporary spool file: " + std::strerror(errno));
 }
 
 DeferredFiles::~DeferredFiles() {

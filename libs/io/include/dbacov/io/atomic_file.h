@@ -80,4 +80,10 @@ class AtomicOutputFile {
 /// cases nothing is left behind and the previous file at `path`, if any, is untouched.
 void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& writer);
 
+/// An anonymous scratch file in directory `dir` (O_TMPFILE; where that is unsupported, a named
+/// temporary unlinked at once): read-write, close-on-exec, gone with its last descriptor, so a
+/// process killed at any moment leaves nothing behind. Returns the descriptor, or -1 with errno
+/// set (e.g. EACCES, ENOENT) when no file can be created there.
+int openScratchFile(const std::string& dir);
+
 }  // namespace dbacov::io
