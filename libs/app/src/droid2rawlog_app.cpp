@@ -75,50 +75,46 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
   auto report = [&](FailureKind kind, const std::string& source, const std::string& what) {
     err << "droid2rawlog: error: " << what << '\n';
     sum.fail(kind, source, what);
-    if (fail_fast) throw FailFastStop{};
+    return !fail_fast;  // whether the run goes on
   };
   auto on_error = [&](const SnapshotItem& item) {
     ++sum.read;
-    report(item.kind, item.source, item.error);
+    return report(item.kind, item.source, item.error);
   };
   try {
     if (!info.empty()) {
-      try {
-        SnapshotInputs(info).forEach(
-            [&](Snapshot& s) {
-              ++sum.read;
-              printSummary(out, s);
-              ++sum.processed;
-            },
-            on_error);
-      } catch (const FailFastStop&) {
-      }
+      SnapshotInputs(info).forEach(
+          [&](Snapshot& s) {
+            ++sum.read;
+            printSummary(out, s);
+            ++sum.processed;
+            return true;
+          },
+          on_error);
       if (!quiet) err << "droid2rawlog: " << sum.line() << '\n';
       return sum.failed() ? 1 : 0;
     }
     const SnapshotInputs in(inputs);
     mrpt_bridge::RawlogWriter writer(output);
-    try {
-      in.forEach(
-          [&](Snapshot& s) {
-            ++sum.read;
-            CObservationDbaSnapshot obs;
-            try {
-              if (fps) deriveKeyframeTimes(s, *fps);
-              obs.timestamp = mrpt::Clock::fromDouble(keyframeTime(s, newestKeyframe(s)));
-            } catch (const std::exception& e) {
-              return report(classifyFailure(e, false), s.source,
-                            s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what());
-            }
-            obs.sensorLabel = label;
-            obs.snapshot = std::move(s);
-            writer.write(obs);  // a write error ends the run: the rawlog would be damaged
-            ++sum.processed;
-          },
-          on_error);
-    } catch (const FailFastStop&) {
-      // Reported already; the writer is destroyed uncommitted: the output does not appear.
-    }
+    in.forEach(
+        [&](Snapshot& s) {
+          ++sum.read;
+          CObservationDbaSnapshot obs;
+          try {
+            if (fps) deriveKeyframeTimes(s, *fps);
+            obs.timestamp = mrpt::Clock::fromDouble(keyframeTime(s, newestKeyframe(s)));
+          } catch (const std::exception& e) {
+            return report(classifyFailure(e, false), s.source,
+                          s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what());
+          }
+          obs.sensorLabel = label;
+          obs.snapshot = std::move(s);
+          writer.write(obs);  // a write error ends the run: the rawlog would be damaged
+          ++sum.processed;
+          return true;
+        },
+        on_error);
+    // After a --fail-fast stop the writer is destroyed uncommitted: the output does not appear.
     if (!fail_fast || sum.failed() == 0) writer.commit();
   } catch (const std::exception& e) {
     err << "droid2rawlog: error: " << e.what() << '\n';

@@ -50,16 +50,12 @@ std::size_t SnapshotInputs::knownCount() const {
   return entries_.size();
 }
 
-void SnapshotInputs::forEach(const std::function<void(Snapshot&)>& process,
-                             const std::function<void(const SnapshotItem&)>& on_error) const {
+void SnapshotInputs::forEach(const std::function<bool(Snapshot&)>& process,
+                             const std::function<bool(const SnapshotItem&)>& on_error) const {
   SnapshotStream stream(*this);
   SnapshotItem item;
-  while (stream.next(&item)) {
-    if (item.ok())
-      process(item.snapshot);
-    else
-      on_error(item);
-  }
+  while (stream.next(&item))
+    if (!(item.ok() ? process(item.snapshot) : on_error(item))) return;
 }
 
 SnapshotStream::SnapshotStream(const SnapshotInputs& inputs) : inputs_(inputs) {}

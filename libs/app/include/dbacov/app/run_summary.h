@@ -62,7 +62,4 @@ class RunSummary {
   std::map<FailureKind, Group> groups_;
 };
 
-/// Thrown to stop a run at its first failure under FailurePolicy::FailFast (already reported).
-struct FailFastStop {};
-
 }  // namespace dbacov::app

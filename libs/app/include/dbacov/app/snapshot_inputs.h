@@ -41,9 +41,10 @@ class SnapshotInputs {
   /// `process`. The n-th snapshot (0-based over all inputs, failures included) gets index n. A
   /// snapshot that cannot be read or is invalid goes to `on_error(item)` (its message names the
   /// file, entry, key or item) and the rest are still processed; an unreadable rawlog entry ends
-  /// that rawlog. An exception from `process` or `on_error` ends the loop.
-  void forEach(const std::function<void(Snapshot&)>& process,
-               const std::function<void(const SnapshotItem&)>& on_error) const;
+  /// that rawlog. Either callback returns false to stop (e.g. --fail-fast); an exception from
+  /// either ends the loop too.
+  void forEach(const std::function<bool(Snapshot&)>& process,
+               const std::function<bool(const SnapshotItem&)>& on_error) const;
 
  private:
   std::vector<Entry> entries_;
