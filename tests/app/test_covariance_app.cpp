@@ -6,14 +6,14 @@
 #include <gtest/gtest.h>
 
 #include "app_runner.h"
-#include "fixtures.h"
 #include "dbacov/app/covariance_app.h"
+#include "dbacov/app/csv_format.h"
 #include "dbacov/app/outputs.h"
 #include "dbacov/core/covariance.h"
-#include "dbacov/app/csv_format.h"
 #include "dbacov/io/npy.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/sim/synthetic_snapshot.h"
+#include "fixtures.h"
 #include "temp_dir.h"
 
 namespace dbacov {
@@ -28,7 +28,8 @@ AppResult run(const std::vector<std::string>& args) {
   return testing::runApp(app::runCovarianceApp, "dba-covariance", args);
 }
 
-sim::SyntheticSnapshot writeSynthetic(const std::string& path, std::uint64_t seed, std::int64_t id) {
+sim::SyntheticSnapshot writeSynthetic(const std::string& path, std::uint64_t seed,
+                                      std::int64_t id) {
   return testing::writeTinySnapshot(path, seed, id);
 }
 
@@ -41,7 +42,8 @@ TEST(CovarianceApp, WritesOneFullPrecisionRowPerGraphKeyframe) {
   std::filesystem::create_directory(dir.file("in"));
   writeSynthetic(dir.file("in/b.npz"), 2, 7);
   writeSynthetic(dir.file("in/a.npz"), 1, 3);
-  const AppResult r = run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4", "-q"});
+  const AppResult r =
+      run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4", "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
   const auto lines = splitLines(readFile(dir.file("out.csv")));
   ASSERT_EQ(lines.size(), 1u + 2 * 6);
@@ -95,7 +97,8 @@ TEST(CovarianceApp, RelativeCsvAndDepthSigmaMatchTheDenseReference) {
     EXPECT_EQ(std::stoi(f[1]), pairs[p].first);
     EXPECT_EQ(std::stoi(f[2]), pairs[p].second);
     EXPECT_LT(pairs[p].first, pairs[p].second);
-    const Eigen::Isometry3d Z = syn.snapshot.T_wc(pairs[p].first).inverse() * syn.snapshot.T_wc(pairs[p].second);
+    const Eigen::Isometry3d Z =
+        syn.snapshot.T_wc(pairs[p].first).inverse() * syn.snapshot.T_wc(pairs[p].second);
     EXPECT_NEAR(std::stod(f[3]), Z.translation().x(), 1e-12);
     const Matrix6d R = ref.relative(pairs[p].first, pairs[p].second);
     int col = 10;
@@ -127,9 +130,10 @@ TEST(CovarianceApp, ThreadCountDoesNotChangeTheOutput) {
   for (int i = 0; i < 6; ++i) writeSynthetic(dir.file("s" + std::to_string(i) + ".npz"), i + 1, i);
   std::ofstream(dir.file("s3.npz")) << "corrupt";  // a failure in the middle keeps its place
   for (const char* threads : {"1", "2"}) {
-    const AppResult r = run({"-i", dir.path(), "--csv", dir.file(std::string("t") + threads + ".csv"),
-                             "--relative-csv", dir.file(std::string("r") + threads + ".csv"),
-                             "--weight-scale", "4", "--threads", threads, "-q"});
+    const AppResult r =
+        run({"-i", dir.path(), "--csv", dir.file(std::string("t") + threads + ".csv"),
+             "--relative-csv", dir.file(std::string("r") + threads + ".csv"), "--weight-scale", "4",
+             "--threads", threads, "-q"});
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_TRUE(contains(r.err, "s3.npz")) << r.err;
   }
@@ -161,7 +165,8 @@ TEST(CovarianceApp, BadSnapshotIsReportedAndTheRestIsWritten) {
   writeSynthetic(dir.file("in/a.npz"), 1, 0);
   std::ofstream(dir.file("in/b.npz")) << "not a zip archive";
   writeSynthetic(dir.file("in/c.npz"), 3, 2);
-  const AppResult r = run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4"});
+  const AppResult r =
+      run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4"});
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(contains(r.err, dir.file("in/b.npz"))) << r.err;
   EXPECT_TRUE(contains(r.err, "3 snapshots read, 2 processed, 1 failed")) << r.err;
@@ -172,7 +177,8 @@ TEST(CovarianceApp, InvalidValuesNameFileKeyAndItem) {
   testing::TempDir dir;
   auto syn = writeSynthetic(dir.file("good.npz"), 1, 0);
   Snapshot bad = syn.snapshot;
-  // Bypass saveSnapshotNpz's validation by writing through numpy-compatible arrays: negative weight.
+  // Bypass saveSnapshotNpz's validation by writing through numpy-compatible arrays: negative
+  // weight.
   bad.weight[5] = -1.0f;
   EXPECT_THROW(io::saveSnapshotNpz(dir.file("bad.npz"), bad), InputError);
   // An edge that loops on itself is refused on load with its index named.
@@ -193,10 +199,12 @@ TEST(CovarianceApp, NumericalFailureNamesKeyframesAndContinues) {
   Snapshot s = syn.snapshot;
   const std::size_t plane = 2 * s.pixelsPerFrame();
   for (int e = 0; e < s.numEdges(); ++e)
-    if (s.ii[e] == 5 || s.jj[e] == 5) std::fill(s.weight.begin() + e * plane, s.weight.begin() + (e + 1) * plane, 0.0f);
+    if (s.ii[e] == 5 || s.jj[e] == 5)
+      std::fill(s.weight.begin() + e * plane, s.weight.begin() + (e + 1) * plane, 0.0f);
   s.id = 1;
   io::saveSnapshotNpz(dir.file("in/b.npz"), s);
-  const AppResult r = run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4"});
+  const AppResult r =
+      run({"-i", dir.file("in"), "--csv", dir.file("out.csv"), "--weight-scale", "4"});
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(contains(r.err, "b.npz (snapshot 1)")) << r.err;
   EXPECT_TRUE(contains(r.err, "keyframes 5")) << r.err;
@@ -208,12 +216,12 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
   writeSynthetic(dir.file("a.npz"), 1, 0);
   const std::string in = dir.file("a.npz"), out = dir.file("o.csv");
   for (const auto& args : std::vector<std::vector<std::string>>{
-           {"--csv", out},                                             // no input
-           {"-i", in},                                                 // no output
-           {"-i", in, "--csv", out, "--preset", "fast"},               // unknown preset
-           {"-i", in, "--csv", out, "--gauge", "three-pose"},          // unknown gauge
-           {"-i", in, "--csv", out, "--weight-scale", "-1"},           // out of domain
-           {"-i", in, "--csv", out, "--near", "2", "--far", "1"},      // near >= far
+           {"--csv", out},                                         // no input
+           {"-i", in},                                             // no output
+           {"-i", in, "--csv", out, "--preset", "fast"},           // unknown preset
+           {"-i", in, "--csv", out, "--gauge", "three-pose"},      // unknown gauge
+           {"-i", in, "--csv", out, "--weight-scale", "-1"},       // out of domain
+           {"-i", in, "--csv", out, "--near", "2", "--far", "1"},  // near >= far
            {"-i", in, "--csv", out, "--gauge", "minimal", "--gauge-sigma-rot", "0.1"},
            {"-i", in, "--csv", out, "--bogus"}}) {
     const AppResult r = run(args);
@@ -246,10 +254,12 @@ TEST(CovarianceApp, UnwritableOutputIsAnError) {
 
 TEST(CovarianceApp, HelpDocumentsEveryOptionAndTheConventions) {
   // The real executable.
-  const AppResult r = testing::runCommand(std::string(DBACOV_BINARY_DIR) + "/bin/dba-covariance --help");
+  const AppResult r =
+      testing::runCommand(std::string(DBACOV_BINARY_DIR) + "/bin/dba-covariance --help");
   EXPECT_EQ(r.code, 0);
-  for (const char* opt : {"--input", "--csv", "--preset", "--weight-scale", "--gauge", "--gauge-sigma-rot",
-                          "--gauge-sigma-trans", "--near", "--far", "--quiet", "T_wc", "[rho; phi]", "Exit status"})
+  for (const char* opt :
+       {"--input", "--csv", "--preset", "--weight-scale", "--gauge", "--gauge-sigma-rot",
+        "--gauge-sigma-trans", "--near", "--far", "--quiet", "T_wc", "[rho; phi]", "Exit status"})
     EXPECT_TRUE(contains(r.out, opt)) << "missing " << opt << " in\n" << r.out;
 }
 

@@ -96,7 +96,8 @@ void BM_Sparse(benchmark::State& state) {
     auto solver = makeCholmodMarginalSolver();
     solver->factorize(p.S);
     double sum = 0;
-    for (int a = 0; a < n; ++a) sum += solver->covariance(indices(p.gauge, a), indices(p.gauge, a)).sum();
+    for (int a = 0; a < n; ++a)
+      sum += solver->covariance(indices(p.gauge, a), indices(p.gauge, a)).sum();
     for (std::size_t e = 0; e < p.snapshot.ii.size(); ++e) {
       const int a = p.ne.slot_of[p.snapshot.ii[e]], b = p.ne.slot_of[p.snapshot.jj[e]];
       sum += solver->covariance(indices(p.gauge, a), indices(p.gauge, b)).sum();

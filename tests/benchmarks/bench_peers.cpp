@@ -121,7 +121,8 @@ void BM_CeresFull(benchmark::State& state) {
   const Case& c = problem(static_cast<int>(state.range(0)));
   const auto t0 = std::chrono::steady_clock::now();
   CeresFullProblem cp = buildCeresFullProblem(c.snapshot, c.options);
-  state.counters["setup_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  state.counters["setup_s"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::vector<double*> blocks;
   for (int k : cp.free_keyframes) blocks.push_back(cp.xi[k].get());
   timeCeresCovariance(state, c, *cp.problem, blocks, cp.free_keyframes);

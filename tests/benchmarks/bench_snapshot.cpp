@@ -10,9 +10,9 @@
 
 #include <benchmark/benchmark.h>
 
+#include "bench_problems.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/parallel.h"
-#include "bench_problems.h"
 #include "flop_count.h"
 
 namespace dbacov::bench {
@@ -40,7 +40,8 @@ void BM_Linearize(benchmark::State& state) {
   state.counters["factors"] = static_cast<double>(linearizeDba(s, o).stats.factors_used);
   state.counters["MFLOP"] = flops / 1e6;
   state.counters["floor_ms"] = 1e3 * flops / kPeakFlopsPerSecond;
-  state.counters["GFLOP/s"] = benchmark::Counter(flops / 1e9, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["GFLOP/s"] =
+      benchmark::Counter(flops / 1e9, benchmark::Counter::kIsIterationInvariantRate);
 }
 
 void BM_Covariances(benchmark::State& state) {
@@ -59,7 +60,13 @@ void BM_Covariances(benchmark::State& state) {
 }
 
 BENCHMARK(BM_Load)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Linearize)->Args({0, 1})->Args({0, 2})->Args({1, 1})->Args({1, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Linearize)
+    ->Args({0, 1})
+    ->Args({0, 2})
+    ->Args({1, 1})
+    ->Args({1, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_Covariances)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
 
 }  // namespace

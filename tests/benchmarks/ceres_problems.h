@@ -32,7 +32,8 @@ class PixelCost final : public ceres::SizedCostFunction<2, 6, 6, 1> {
     const Eigen::Isometry3d Tj = Tj_ * expSE3(Eigen::Map<const Vector6d>(p[1]));
     const Eigen::Isometry3d T_ji = Tj.inverse() * Ti;
     PixelFactorLinearization f;
-    linearizePixelFactor(T_ji.linear(), T_ji.translation(), K_, x_, y_, d0_ + p[2][0], tx_, ty_, &f);
+    linearizePixelFactor(T_ji.linear(), T_ji.translation(), K_, x_, y_, d0_ + p[2][0], tx_, ty_,
+                         &f);
     using Jac = Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>;
     Eigen::Map<Eigen::Vector2d> r(residuals);
     r = sw_.cwiseProduct(f.r);
@@ -85,7 +86,8 @@ inline CeresFullProblem buildCeresFullProblem(const Snapshot& s, const DbaOption
     for (int p = 0; p < HW; ++p) {
       const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
       if (!(d > 0) || (s.weightPlane(e, 0)[p] == 0 && s.weightPlane(e, 1)[p] == 0)) continue;
-      const Eigen::Vector3d Y = transferPoint(T_ji.linear(), T_ji.translation(), K, p % s.W, p / s.W, d);
+      const Eigen::Vector3d Y =
+          transferPoint(T_ji.linear(), T_ji.translation(), K, p % s.W, p / s.W, d);
       if (!keepPixelFactor(o, d, Y.z())) continue;
       auto [it, fresh] = depth_of.emplace(std::make_pair(i, p), static_cast<int>(depth_of.size()));
       factors.emplace_back(e, p, it->second);
@@ -95,15 +97,17 @@ inline CeresFullProblem buildCeresFullProblem(const Snapshot& s, const DbaOption
   for (const auto& [e, p, k] : factors) {
     const int i = static_cast<int>(s.ii[e]), j = static_cast<int>(s.jj[e]);
     const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
-    auto* cost = new PixelCost(s.T_wc(i), s.T_wc(j), K, p % s.W, p / s.W, d, s.targetPlane(e, 0)[p],
-                               s.targetPlane(e, 1)[p], std::sqrt(o.weight_scale * s.weightPlane(e, 0)[p]),
-                               std::sqrt(o.weight_scale * s.weightPlane(e, 1)[p]));
+    auto* cost =
+        new PixelCost(s.T_wc(i), s.T_wc(j), K, p % s.W, p / s.W, d, s.targetPlane(e, 0)[p],
+                      s.targetPlane(e, 1)[p], std::sqrt(o.weight_scale * s.weightPlane(e, 0)[p]),
+                      std::sqrt(o.weight_scale * s.weightPlane(e, 1)[p]));
     c.problem->AddResidualBlock(cost, nullptr, c.xi[i].get(), c.xi[j].get(), &c.dd[k]);
   }
   const GaugeParameterization g = makeGauge(o.gauge, s, kf);
   for (int slot : g.gauge_slots) c.problem->SetParameterBlockConstant(c.xi[kf[slot]].get());
   for (std::size_t a = 0; a < kf.size(); ++a)
-    if (std::find(g.gauge_slots.begin(), g.gauge_slots.end(), static_cast<int>(a)) == g.gauge_slots.end())
+    if (std::find(g.gauge_slots.begin(), g.gauge_slots.end(), static_cast<int>(a)) ==
+        g.gauge_slots.end())
       c.free_keyframes.push_back(kf[a]);
   return c;
 }
@@ -124,7 +128,8 @@ class ReducedCost final : public ceres::CostFunction {
     if (jacobians)
       for (int b = 0; b < nb; ++b)
         if (jacobians[b]) {
-          Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> J(jacobians[b], U_.rows(), 6);
+          Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> J(jacobians[b],
+                                                                                  U_.rows(), 6);
           J = U_.middleCols<6>(6 * b);
         }
     return true;

@@ -21,6 +21,8 @@ inline double resetPeakRss() {
   return readStatusKb("VmRSS") * 1024.0;
 }
 
-inline double peakRss() { return readStatusKb("VmHWM") * 1024.0; }
+inline double peakRss() {
+  return readStatusKb("VmHWM") * 1024.0;
+}
 
 }  // namespace dbacov::bench

@@ -1,9 +1,9 @@
 // Independent dense reference for the covariance engine (tests only).
 //
 // Builds the full information matrix over (graph poses, every depth variable) as JᵀΛJ of a dense
-// Jacobian, applies the gauge densely (a prior, or a selection/projection matrix whose minimal-gauge
-// direction comes from finite differences of the centre distance), and inverts the whole thing:
-// no Schur complement, no block storage, no sparse solver.
+// Jacobian, applies the gauge densely (a prior, or a selection/projection matrix whose
+// minimal-gauge direction comes from finite differences of the centre distance), and inverts the
+// whole thing: no Schur complement, no block storage, no sparse solver.
 #pragma once
 
 #include <vector>
@@ -41,7 +41,11 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
 
   // Every used factor row, with depth variables created on first use.
-  struct Row { int slot_i, slot_j, depth; Eigen::Matrix<double, 1, 6> Ji, Jj; double Jd, r, w; };
+  struct Row {
+    int slot_i, slot_j, depth;
+    Eigen::Matrix<double, 1, 6> Ji, Jj;
+    double Jd, r, w;
+  };
   std::vector<Row> rows;
   std::vector<int> depth_index(static_cast<std::size_t>(s.numKeyframes()) * HW, -1);
   for (int e = 0; e < s.numEdges(); ++e) {
@@ -50,7 +54,8 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
     for (int p = 0; p < HW; ++p) {
       const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
       if (!(d > 0)) continue;
-      const Eigen::Vector3d Y = transferPoint(T_ji.linear(), T_ji.translation(), K, p % s.W, p / s.W, d);
+      const Eigen::Vector3d Y =
+          transferPoint(T_ji.linear(), T_ji.translation(), K, p % s.W, p / s.W, d);
       if (!keepPixelFactor(o, d, Y.z())) continue;
       PixelFactorLinearization f;
       linearizePixelFactor(T_ji.linear(), T_ji.translation(), K, p % s.W, p / s.W, d,
@@ -63,7 +68,8 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
           di = static_cast<int>(sys.depth_vars.size());
           sys.depth_vars.emplace_back(i, p);
         }
-        rows.push_back({sys.slotOf(i), sys.slotOf(j), di, f.J_i.row(c), f.J_j.row(c), f.J_d[c], f.r[c], w});
+        rows.push_back(
+            {sys.slotOf(i), sys.slotOf(j), di, f.J_i.row(c), f.J_j.row(c), f.J_d[c], f.r[c], w});
       }
     }
   }
@@ -88,10 +94,17 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
   std::sort(sources.begin(), sources.end());
   const int ga = sys.slotOf(sources[0]), gb = sys.slotOf(sources[1]);
   std::vector<Eigen::VectorXd> cols;  // columns of P
-  auto unit = [&](int k) { Eigen::VectorXd v = Eigen::VectorXd::Zero(dim); v[k] = 1; return v; };
+  auto unit = [&](int k) {
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(dim);
+    v[k] = 1;
+    return v;
+  };
   for (int k = 0; k < dim; ++k) {
     const int slot = k < 6 * n ? k / 6 : -1;
-    if (slot != ga && slot != gb) { cols.push_back(unit(k)); continue; }
+    if (slot != ga && slot != gb) {
+      cols.push_back(unit(k));
+      continue;
+    }
     if (o.gauge.type == GaugeOptions::Type::TwoPose) {
       const double sigma = (k % 6) < 3 ? o.gauge.sigma_trans : o.gauge.sigma_rot;
       if (sigma > 0) {
@@ -123,8 +136,8 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
 }
 
 struct DenseReference {
-  std::vector<int> keyframes;      ///< slot → keyframe
-  Eigen::MatrixXd Sigma_full;      ///< covariance of (6 per slot, then depths), gauge applied
+  std::vector<int> keyframes;  ///< slot → keyframe
+  Eigen::MatrixXd Sigma_full;  ///< covariance of (6 per slot, then depths), gauge applied
   std::vector<std::pair<int, int>> depth_vars;  ///< (keyframe, pixel) of each depth variable
   int numPoseDims() const { return 6 * static_cast<int>(keyframes.size()); }
   Matrix6d marginal(int keyframe) const {

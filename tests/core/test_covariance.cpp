@@ -12,7 +12,9 @@ namespace {
 
 using testing::gaugeOptions;
 
-sim::SyntheticSnapshotConfig smallConfig(std::uint64_t seed) { return testing::gridConfig(seed, 5, 6, 8); }
+sim::SyntheticSnapshotConfig smallConfig(std::uint64_t seed) {
+  return testing::gridConfig(seed, 5, 6, 8);
+}
 
 double relErr(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / std::max(b.norm(), 1e-300);
@@ -21,24 +23,26 @@ double relErr(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 void expectMatchesDense(const Snapshot& s, const DbaOptions& o, double tol) {
   const testing::DenseReference ref = testing::denseReference(s, o);
   for (SolverKind kind : {SolverKind::Sparse, SolverKind::Dense}) {
-  SCOPED_TRACE(kind == SolverKind::Sparse ? "sparse solver" : "dense solver");
-  SolverOptions so;
-  so.kind = kind;
-  const DbaCovariance cov(s, o, so);
-  ASSERT_EQ(cov.keyframes(), ref.keyframes);
-  for (int a : cov.keyframes()) {
-    const Matrix6d R = ref.marginal(a);
-    if (R.norm() == 0) {
-      EXPECT_EQ(cov.marginal(a).norm(), 0.0) << "keyframe " << a;
-      continue;
+    SCOPED_TRACE(kind == SolverKind::Sparse ? "sparse solver" : "dense solver");
+    SolverOptions so;
+    so.kind = kind;
+    const DbaCovariance cov(s, o, so);
+    ASSERT_EQ(cov.keyframes(), ref.keyframes);
+    for (int a : cov.keyframes()) {
+      const Matrix6d R = ref.marginal(a);
+      if (R.norm() == 0) {
+        EXPECT_EQ(cov.marginal(a).norm(), 0.0) << "keyframe " << a;
+        continue;
+      }
+      EXPECT_LT(relErr(cov.marginal(a), R), tol) << "keyframe " << a << "\n"
+                                                 << cov.marginal(a) << "\nvs\n"
+                                                 << R;
+      for (int b : cov.keyframes()) {
+        const Matrix12d J = cov.joint(a, b);
+        EXPECT_LT((J.topRightCorner<6, 6>() - ref.cross(a, b)).norm(), tol * R.norm())
+            << "pair " << a << "," << b;
+      }
     }
-    EXPECT_LT(relErr(cov.marginal(a), R), tol) << "keyframe " << a << "\n" << cov.marginal(a) << "\nvs\n" << R;
-    for (int b : cov.keyframes()) {
-      const Matrix12d J = cov.joint(a, b);
-      EXPECT_LT((J.topRightCorner<6, 6>() - ref.cross(a, b)).norm(), tol * R.norm())
-          << "pair " << a << "," << b;
-    }
-  }
   }
 }
 
@@ -141,8 +145,10 @@ TEST(Covariance, DisconnectedPartIsNamed) {
     if ((s.ii[e] == 2 && s.jj[e] == 3) || (s.ii[e] == 3 && s.jj[e] == 2)) continue;
     cut.ii.push_back(s.ii[e]);
     cut.jj.push_back(s.jj[e]);
-    cut.target.insert(cut.target.end(), s.target.begin() + e * plane, s.target.begin() + (e + 1) * plane);
-    cut.weight.insert(cut.weight.end(), s.weight.begin() + e * plane, s.weight.begin() + (e + 1) * plane);
+    cut.target.insert(cut.target.end(), s.target.begin() + e * plane,
+                      s.target.begin() + (e + 1) * plane);
+    cut.weight.insert(cut.weight.end(), s.weight.begin() + e * plane,
+                      s.weight.begin() + (e + 1) * plane);
   }
   cut.validate();
   try {

@@ -21,8 +21,8 @@ Case randomCase(std::mt19937& rng) {
     a[k] = 0.4 * u(rng);
     b[k] = 0.4 * u(rng);
   }
-  return {expSE3(a), expSE3(b), 30 + 20 * u(rng), 20 + 15 * u(rng), 0.6 + 0.5 * u(rng),
-          30 + 10 * u(rng), 25 + 10 * u(rng)};
+  return {expSE3(a),          expSE3(b),        30 + 20 * u(rng), 20 + 15 * u(rng),
+          0.6 + 0.5 * u(rng), 30 + 10 * u(rng), 25 + 10 * u(rng)};
 }
 
 TEST(DbaFactor, JacobiansMatchCentralDifferences) {
@@ -46,16 +46,20 @@ TEST(DbaFactor, JacobiansMatchCentralDifferences) {
       auto res = [&](const Eigen::Isometry3d& Ti, const Eigen::Isometry3d& Tj) {
         return pixelFactorResidual(Ti, Tj, K, c.x, c.y, c.d, c.tx, c.ty);
       };
-      Ji.col(k) = (res(c.T_wc_i * expSE3(dx), c.T_wc_j) - res(c.T_wc_i * expSE3(-dx), c.T_wc_j)) / (2 * h);
-      Jj.col(k) = (res(c.T_wc_i, c.T_wc_j * expSE3(dx)) - res(c.T_wc_i, c.T_wc_j * expSE3(-dx))) / (2 * h);
+      Ji.col(k) =
+          (res(c.T_wc_i * expSE3(dx), c.T_wc_j) - res(c.T_wc_i * expSE3(-dx), c.T_wc_j)) / (2 * h);
+      Jj.col(k) =
+          (res(c.T_wc_i, c.T_wc_j * expSE3(dx)) - res(c.T_wc_i, c.T_wc_j * expSE3(-dx))) / (2 * h);
     }
     const Eigen::Vector2d Jd =
         (pixelFactorResidual(c.T_wc_i, c.T_wc_j, K, c.x, c.y, c.d + h, c.tx, c.ty) -
-         pixelFactorResidual(c.T_wc_i, c.T_wc_j, K, c.x, c.y, c.d - h, c.tx, c.ty)) / (2 * h);
+         pixelFactorResidual(c.T_wc_i, c.T_wc_j, K, c.x, c.y, c.d - h, c.tx, c.ty)) /
+        (2 * h);
     const double tol = 1e-6 * std::max(1.0, f.J_i.norm() + f.J_j.norm());
     EXPECT_LT((f.J_i - Ji).norm(), tol) << "analytic\n" << f.J_i << "\nnumeric\n" << Ji;
     EXPECT_LT((f.J_j - Jj).norm(), tol) << "analytic\n" << f.J_j << "\nnumeric\n" << Jj;
-    EXPECT_LT((f.J_d - Jd).norm(), tol) << "analytic " << f.J_d.transpose() << " numeric " << Jd.transpose();
+    EXPECT_LT((f.J_d - Jd).norm(), tol)
+        << "analytic " << f.J_d.transpose() << " numeric " << Jd.transpose();
   }
 }
 
@@ -72,9 +76,10 @@ TEST(DbaFactor, WrongConventionWouldBeDetected) {
   for (int k = 0; k < 6; ++k) {
     Vector6d dx = Vector6d::Zero();
     dx[k] = h;
-    Jleft.col(k) = (pixelFactorResidual(expSE3(dx) * c.T_wc_i, c.T_wc_j, K, c.x, c.y, c.d, c.tx, c.ty) -
-                    pixelFactorResidual(expSE3(-dx) * c.T_wc_i, c.T_wc_j, K, c.x, c.y, c.d, c.tx, c.ty)) /
-                   (2 * h);
+    Jleft.col(k) =
+        (pixelFactorResidual(expSE3(dx) * c.T_wc_i, c.T_wc_j, K, c.x, c.y, c.d, c.tx, c.ty) -
+         pixelFactorResidual(expSE3(-dx) * c.T_wc_i, c.T_wc_j, K, c.x, c.y, c.d, c.tx, c.ty)) /
+        (2 * h);
   }
   EXPECT_GT((f.J_i - Jleft).norm(), 1e-2);
 }

@@ -35,9 +35,10 @@ TEST(Parallel, LinearizationIsBitIdenticalForAnyThreadCount) {
 }
 
 TEST(Parallel, ExceptionsPropagate) {
-  EXPECT_THROW(parallelFor(8, [](std::size_t i) {
-                 if (i == 5) throw std::runtime_error("boom");
-               }),
+  EXPECT_THROW(parallelFor(8,
+                           [](std::size_t i) {
+                             if (i == 5) throw std::runtime_error("boom");
+                           }),
                std::runtime_error);
 }
 

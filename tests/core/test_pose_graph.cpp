@@ -32,7 +32,8 @@ TEST(PoseGraph, RightJacobianMatchesFiniteDifferences) {
 TEST(PoseGraph, EdgeJacobiansMatchFiniteDifferences) {
   std::mt19937 rng(5);
   for (int t = 0; t < 30; ++t) {
-    const Eigen::Isometry3d Ta = expSE3(randomTangent(rng, 1.0)), Tb = expSE3(randomTangent(rng, 1.0));
+    const Eigen::Isometry3d Ta = expSE3(randomTangent(rng, 1.0)),
+                            Tb = expSE3(randomTangent(rng, 1.0));
     const Eigen::Isometry3d Z = Ta.inverse() * Tb * expSE3(randomTangent(rng, 0.3));
     Vector6d r;
     Matrix6d Ja, Jb;
@@ -77,7 +78,8 @@ TEST(PoseGraph, ChainCovarianceMatchesPropagation) {
   }
   for (SolverKind kind : {SolverKind::Sparse, SolverKind::Dense}) {
     const auto cov = poseGraphCovariances(g, {0}, kind);
-    for (const auto& [id, W] : want) EXPECT_LT((cov.at(id) - W).norm(), 1e-9 * (1 + W.norm())) << "node " << id;
+    for (const auto& [id, W] : want)
+      EXPECT_LT((cov.at(id) - W).norm(), 1e-9 * (1 + W.norm())) << "node " << id;
   }
 }
 

@@ -1,8 +1,8 @@
 // The real DROID-SLAM snapshot of ../shared/data (SPEC §1): conventions, covariance properties.
 #include <filesystem>
 
-#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
 
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/reprojection.h"
@@ -79,7 +79,10 @@ TEST_F(SharedSnapshot, MinimalGaugeRemovesExactlySevenDof) {
   EXPECT_EQ(cov.freeDof(2), 5);
   // The second keyframe keeps its rotation uncertainty.
   const Matrix6d S2 = cov.marginal(2);
-  EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(S2.bottomRightCorner<3, 3>()).eigenvalues().minCoeff(), 0);
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(S2.bottomRightCorner<3, 3>())
+                .eigenvalues()
+                .minCoeff(),
+            0);
 }
 
 }  // namespace

@@ -3,8 +3,8 @@
 // poses, orderings).
 #include <random>
 
-#include <Eigen/Dense>
 #include <gtest/gtest.h>
+#include <Eigen/Dense>
 
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/marginal_solver.h"
@@ -36,7 +36,8 @@ TEST(SparseSolver, EveryEntryMatchesDenseInverse) {
     const Eigen::MatrixXd U = Eigen::MatrixXd(S);
     const Eigen::MatrixXd full = Eigen::MatrixXd(U.selfadjointView<Eigen::Upper>());
     const Eigen::MatrixXd inv = full.inverse();
-    for (Ordering o : {Ordering::Auto, Ordering::Amd, Ordering::Metis, Ordering::Nesdis, Ordering::Natural}) {
+    for (Ordering o :
+         {Ordering::Auto, Ordering::Amd, Ordering::Metis, Ordering::Nesdis, Ordering::Natural}) {
       auto solver = makeCholmodMarginalSolver(o);
       solver->factorize(S);
       std::vector<int> all(n);
@@ -63,11 +64,13 @@ TEST(SparseSolver, NotPositiveDefiniteNamesTheColumn) {
   Eigen::MatrixXd B = Eigen::MatrixXd::Identity(3, 3);
   B << 1, 1, 0, 1, 1 + 1e-15, 0, 0, 0, 1;
   auto solver2 = makeCholmodMarginalSolver(Ordering::Natural);
-  EXPECT_THROW(solver2->factorize(Eigen::SparseMatrix<double>(B.sparseView()).triangularView<Eigen::Upper>()),
+  EXPECT_THROW(solver2->factorize(
+                   Eigen::SparseMatrix<double>(B.sparseView()).triangularView<Eigen::Upper>()),
                FactorizationError);
   auto dense = makeDenseMarginalSolver();
-  EXPECT_THROW(dense->factorize(Eigen::SparseMatrix<double>(B.sparseView()).triangularView<Eigen::Upper>()),
-               FactorizationError);
+  EXPECT_THROW(
+      dense->factorize(Eigen::SparseMatrix<double>(B.sparseView()).triangularView<Eigen::Upper>()),
+      FactorizationError);
 }
 
 sim::SyntheticSnapshotConfig graphConfig(std::uint64_t seed, int n) {

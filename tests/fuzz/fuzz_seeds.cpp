@@ -13,8 +13,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   namespace fs = std::filesystem;
-  for (const auto& [target, corpus] : {std::pair{std::string("npz"), dbacov::fuzz::npzSeeds()},
-                                       std::pair{std::string("rawlog"), dbacov::fuzz::rawlogSeeds()}}) {
+  for (const auto& [target, corpus] :
+       {std::pair{std::string("npz"), dbacov::fuzz::npzSeeds()},
+        std::pair{std::string("rawlog"), dbacov::fuzz::rawlogSeeds()}}) {
     const fs::path dir = fs::path(argv[1]) / target;
     fs::create_directories(dir);
     for (const auto& [name, bytes] : corpus) {
@@ -30,7 +31,8 @@ int main(int argc, char** argv) {
         return 1;
       }
       std::ofstream(dir / ("seed_" + name), std::ios::binary)
-          .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+          .write(reinterpret_cast<const char*>(bytes.data()),
+                 static_cast<std::streamsize>(bytes.size()));
     }
     std::cout << "fuzz_seeds: " << corpus.size() << " seeds in " << dir.string() << "\n";
   }

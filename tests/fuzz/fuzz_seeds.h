@@ -55,21 +55,29 @@ std::vector<unsigned char> fileBytes(F&& write) {
 inline Corpus npzSeeds() {
   Corpus c;
   const Snapshot tiny = seedSnapshot(3, 4, 5), small = seedSnapshot(6, 8, 10, 1, 2);
-  c["tiny_deflated.npz"] = fileBytes([&](const std::string& p) { io::saveSnapshotNpz(p, tiny, true); });
-  c["tiny_stored.npz"] = fileBytes([&](const std::string& p) { io::saveSnapshotNpz(p, tiny, false); });
+  c["tiny_deflated.npz"] =
+      fileBytes([&](const std::string& p) { io::saveSnapshotNpz(p, tiny, true); });
+  c["tiny_stored.npz"] =
+      fileBytes([&](const std::string& p) { io::saveSnapshotNpz(p, tiny, false); });
   c["small_outside_graph.npz"] =
       fileBytes([&](const std::string& p) { io::saveSnapshotNpz(p, small, true); });
   // Other accepted layouts: float64 arrays, int32 indices, id of shape (1,), no optional keys.
   c["tiny_variants.npz"] = fileBytes([&](const std::string& p) {
     const std::size_t N = tiny.numKeyframes(), E = tiny.numEdges(), H = tiny.H, W = tiny.W;
     io::NpzWriter w(p, false);
-    w.add("poses", io::makeNpy(std::vector<double>(tiny.poses_cw.data(), tiny.poses_cw.data() + N * 7), {N, 7}));
-    w.add("disps", io::makeNpy(std::vector<double>(tiny.disps.begin(), tiny.disps.end()), {N, H, W}));
-    w.add("intrinsics", io::makeNpy(std::vector<double>(tiny.intrinsics.data(), tiny.intrinsics.data() + 4), {4}));
+    w.add("poses",
+          io::makeNpy(std::vector<double>(tiny.poses_cw.data(), tiny.poses_cw.data() + N * 7),
+                      {N, 7}));
+    w.add("disps",
+          io::makeNpy(std::vector<double>(tiny.disps.begin(), tiny.disps.end()), {N, H, W}));
+    w.add(
+        "intrinsics",
+        io::makeNpy(std::vector<double>(tiny.intrinsics.data(), tiny.intrinsics.data() + 4), {4}));
     w.add("ii", io::makeNpy(std::vector<std::int32_t>(tiny.ii.begin(), tiny.ii.end()), {E}));
     w.add("jj", io::makeNpy(std::vector<std::int32_t>(tiny.jj.begin(), tiny.jj.end()), {E}));
     w.add("target", io::makeNpy(tiny.target, {E, 2, H, W}));
-    w.add("weight", io::makeNpy(std::vector<double>(tiny.weight.begin(), tiny.weight.end()), {E, 2, H, W}));
+    w.add("weight",
+          io::makeNpy(std::vector<double>(tiny.weight.begin(), tiny.weight.end()), {E, 2, H, W}));
     w.add("tstamp", io::makeNpy(std::vector<float>(tiny.tstamp.begin(), tiny.tstamp.end()), {N}));
     w.add("id", io::makeNpy(std::vector<std::int32_t>{7}, {1}));
     w.commit();

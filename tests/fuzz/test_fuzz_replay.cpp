@@ -24,7 +24,8 @@ std::vector<std::string> regressions(const std::string& target) {
   std::vector<std::string> files;
   std::error_code ec;  // a target without regressions has no directory
   for (const auto& e : std::filesystem::directory_iterator(kRegressions + target, ec))
-    if (e.is_regular_file() && e.path().filename().string()[0] != '.') files.push_back(e.path().string());
+    if (e.is_regular_file() && e.path().filename().string()[0] != '.')
+      files.push_back(e.path().string());
   std::sort(files.begin(), files.end());
   return files;
 }

@@ -11,7 +11,9 @@
 namespace dbacov::io::testing {
 namespace {
 
-std::vector<unsigned char> bytesOf(const std::string& s) { return {s.begin(), s.end()}; }
+std::vector<unsigned char> bytesOf(const std::string& s) {
+  return {s.begin(), s.end()};
+}
 
 TEST(DeferredFiles, FilesAppearOnlyAtCommitWithTheirLastContents) {
   TempDir dir;
@@ -54,7 +56,8 @@ TEST(DeferredFiles, AFileThatCannotBeWrittenDoesNotStopTheOthers) {
     ADD_FAILURE() << "commit() did not report the directories";
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()),
-              dir.file("x.npy") + ": is a directory, expected a file path (and 1 more files not written)");
+              dir.file("x.npy") +
+                  ": is a directory, expected a file path (and 1 more files not written)");
   }
   for (const char* name : {"a.npy", "b.npy", "c.npy"}) EXPECT_EQ(readText(dir.file(name)), name);
 }

@@ -7,10 +7,10 @@
 
 #include <gtest/gtest.h>
 
-#include "snapshot_compare.h"
 #include "dbacov/io/npz.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "io_test_util.h"
+#include "snapshot_compare.h"
 
 namespace dbacov::io::testing {
 namespace {

@@ -51,7 +51,8 @@ TEST(GzStreams, RoundTripIsGzipThatZlibReads) {
   gzFile gz = gzopen(dir.file("a.gz").c_str(), "rb");
   ASSERT_NE(gz, nullptr);
   std::vector<unsigned char> back(data.size() + 10);
-  EXPECT_EQ(gzread(gz, back.data(), static_cast<unsigned>(back.size())), static_cast<int>(data.size()));
+  EXPECT_EQ(gzread(gz, back.data(), static_cast<unsigned>(back.size())),
+            static_cast<int>(data.size()));
   gzclose(gz);
   back.resize(data.size());
   EXPECT_EQ(back, data);

@@ -13,7 +13,8 @@
 namespace dbacov {
 namespace {
 
-Matrix6d sampleCovariance(const Eigen::Isometry3d& T, const Matrix6d& Sigma, int n, std::uint32_t seed) {
+Matrix6d sampleCovariance(const Eigen::Isometry3d& T, const Matrix6d& Sigma, int n,
+                          std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> n01;
   const Matrix6d L = Sigma.llt().matrixL();
@@ -40,15 +41,17 @@ TEST(PoseConversion, TangentToYawPitchRollMatchesMonteCarlo) {
       0, 0, 0, 0, 2, 0.5,     //
       0, 0, 0, 0, 0, 1.5;
   Matrix6d Sigma = A * A.transpose();
-  Sigma.topLeftCorner<3, 3>() *= 1e-4;   // ~1 cm
+  Sigma.topLeftCorner<3, 3>() *= 1e-4;      // ~1 cm
   Sigma.bottomRightCorner<3, 3>() *= 4e-6;  // ~2–4 mrad: small enough to stay linear at 80°
   Sigma.topRightCorner<3, 3>() *= 2e-5;
   Sigma.bottomLeftCorner<3, 3>() = Sigma.topRightCorner<3, 3>().transpose();
   ASSERT_GT(Eigen::SelfAdjointEigenSolver<Matrix6d>(Sigma).eigenvalues().minCoeff(), 0);
 
   const double deg = M_PI / 180;
-  for (const auto& ypr : std::vector<Eigen::Vector3d>{{0.3, 0.2, -0.5}, {2.5, -1.2, 1.0},
-                                                      {0.1, 80 * deg, 0.4}, {-1.0, -80 * deg, 2.5},
+  for (const auto& ypr : std::vector<Eigen::Vector3d>{{0.3, 0.2, -0.5},
+                                                      {2.5, -1.2, 1.0},
+                                                      {0.1, 80 * deg, 0.4},
+                                                      {-1.0, -80 * deg, 2.5},
                                                       {3.0, 0.0, -3.0}}) {
     const mrpt::poses::CPose3D p(1.0, -2.0, 0.5, ypr[0], ypr[1], ypr[2]);
     const Eigen::Isometry3d T = mrpt_bridge::fromCPose3D(p);
@@ -59,8 +62,11 @@ TEST(PoseConversion, TangentToYawPitchRollMatchesMonteCarlo) {
     const Matrix6d mc = sampleCovariance(T, Sigma, 200000, 7);
     // Compare in correlation-normalized form so that every entry counts the same.
     const Vector6d s = predicted.diagonal().cwiseSqrt();
-    const Matrix6d diff = s.cwiseInverse().asDiagonal() * (mc - predicted) * s.cwiseInverse().asDiagonal();
-    EXPECT_LT(diff.cwiseAbs().maxCoeff(), 0.03) << "ypr " << ypr.transpose() << "\nMC\n" << mc << "\npredicted\n" << predicted;
+    const Matrix6d diff =
+        s.cwiseInverse().asDiagonal() * (mc - predicted) * s.cwiseInverse().asDiagonal();
+    EXPECT_LT(diff.cwiseAbs().maxCoeff(), 0.03) << "ypr " << ypr.transpose() << "\nMC\n"
+                                                << mc << "\npredicted\n"
+                                                << predicted;
     EXPECT_NEAR(g.mean.pitch(), ypr[1], 1e-12);
   }
 }

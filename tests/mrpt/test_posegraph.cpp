@@ -78,9 +78,12 @@ TEST(PoseGraphFiles, BinaryKeepsEveryEntryTextLosesOnlyRotationOffDiagonals) {
   mrpt_bridge::writeGraphText(dir.file("g.graph"), sc.graph, mrpt_bridge::GraphTextLayout::Mrpt258);
   mrpt_bridge::writeGraphText(dir.file("g.g2o"), sc.graph, mrpt_bridge::GraphTextLayout::G2o);
 
-  const PoseGraph bin = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(dir.file("g.graphbin")));
-  const PoseGraph txt = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(dir.file("g.graph")));
-  const PoseGraph g2o_as_mrpt = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(dir.file("g.g2o")));
+  const PoseGraph bin =
+      mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(dir.file("g.graphbin")));
+  const PoseGraph txt =
+      mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(dir.file("g.graph")));
+  const PoseGraph g2o_as_mrpt =
+      mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(dir.file("g.g2o")));
   ASSERT_EQ(bin.edges.size(), sc.graph.edges.size());
   ASSERT_EQ(txt.edges.size(), sc.graph.edges.size());
   for (std::size_t i = 0; i < sc.graph.edges.size(); ++i) {
@@ -130,7 +133,8 @@ std::vector<Eigen::Isometry3d> readTum(const std::string& path) {
   std::vector<Eigen::Isometry3d> out;
   std::ifstream in(path);
   double v[8];
-  while (in >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6] >> v[7]) out.push_back(poseFromTQ(v + 1));
+  while (in >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6] >> v[7])
+    out.push_back(poseFromTQ(v + 1));
   return out;
 }
 
@@ -148,10 +152,12 @@ TEST(PoseGraphOptimizer, ConvergesFromTheExportedGuessAndReportsCovariances) {
   std::mt19937 rng(1);
   std::normal_distribution<double> n(0, 0.01);
   for (auto& [id, T] : perturbed.nodes)
-    if (id != 0) T = T * expSE3((Vector6d() << n(rng), n(rng), n(rng), n(rng), n(rng), n(rng)).finished());
+    if (id != 0)
+      T = T * expSE3((Vector6d() << n(rng), n(rng), n(rng), n(rng), n(rng), n(rng)).finished());
   mrpt_bridge::writeGraphBinary(dir.file("g.graphbin"), perturbed);
   writeNodes(dir.file("g.nodes.csv"), perturbed);
-  const AppResult r = posegraph({"-g", dir.file("g.graphbin"), "--tum", dir.file("o.tum"), "-o", dir.file("o.rawlog")});
+  const AppResult r = posegraph(
+      {"-g", dir.file("g.graphbin"), "--tum", dir.file("o.tum"), "-o", dir.file("o.rawlog")});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(contains(r.err, "iterations")) << r.err;
   const auto est = readTum(dir.file("o.tum"));
@@ -167,7 +173,8 @@ Matrix6d randomInformation(std::mt19937& rng) {
   for (int i = 0; i < 36; ++i) A.data()[i] = u(rng);
   Vector6d scale;
   scale << 1, 3, 10, 30, 2, 20;
-  const Matrix6d I = scale.asDiagonal() * (A * A.transpose() + 0.1 * Matrix6d::Identity()) * scale.asDiagonal();
+  const Matrix6d I =
+      scale.asDiagonal() * (A * A.transpose() + 0.1 * Matrix6d::Identity()) * scale.asDiagonal();
   return 0.5 * (I + I.transpose());
 }
 
@@ -186,7 +193,8 @@ std::map<int, Eigen::Isometry3d> referenceOptimum(PoseGraph g) {
         if (i == 0) continue;
         b.segment<6>(6 * (i - 1)) += Ji->transpose() * e.information * r;
         for (const auto& [j, Jj] : parts)
-          if (j != 0) H.block<6, 6>(6 * (i - 1), 6 * (j - 1)) += Ji->transpose() * e.information * *Jj;
+          if (j != 0)
+            H.block<6, 6>(6 * (i - 1), 6 * (j - 1)) += Ji->transpose() * e.information * *Jj;
       }
     }
     const Eigen::VectorXd delta = -H.ldlt().solve(b);
@@ -196,7 +204,8 @@ std::map<int, Eigen::Isometry3d> referenceOptimum(PoseGraph g) {
   return g.nodes;
 }
 
-std::string constraintLine(const char* kind, int from, int to, const Eigen::Isometry3d& Z, const Matrix6d& information) {
+std::string constraintLine(const char* kind, int from, int to, const Eigen::Isometry3d& Z,
+                           const Matrix6d& information) {
   std::ostringstream os;
   os << kind << ' ' << from << ' ' << to << std::setprecision(17);
   const auto tq = poseToTQ(Z);
@@ -241,13 +250,15 @@ LoopResult optimizeDriftingLoop(const LoopScenario& sc, std::uint32_t seed, doub
   testing::TempDir dir;
   mrpt_bridge::writeGraphBinary(dir.file("g.graphbin"), noisy);
   writeNodes(dir.file("g.nodes.csv"), noisy);
-  const Matrix6d loop_info = (Vector6d() << 1e6 / (unit * unit), 1e6 / (unit * unit), 1e6 / (unit * unit), 1e6, 1e6, 1e6)
-                                 .finished()
-                                 .asDiagonal();  // 1 mm, 1 mrad
-  std::ofstream(dir.file("loop.txt")) << "# loop closure\n"
-                                      << constraintLine("relative", 0, n - 1, truth[0].inverse() * truth[n - 1], loop_info)
-                                      << "\n";
-  const std::vector<std::string> args{"-g", dir.file("g.graphbin"), "--extra", dir.file("loop.txt"), "-q"};
+  const Matrix6d loop_info =
+      (Vector6d() << 1e6 / (unit * unit), 1e6 / (unit * unit), 1e6 / (unit * unit), 1e6, 1e6, 1e6)
+          .finished()
+          .asDiagonal();  // 1 mm, 1 mrad
+  std::ofstream(dir.file("loop.txt"))
+      << "# loop closure\n"
+      << constraintLine("relative", 0, n - 1, truth[0].inverse() * truth[n - 1], loop_info) << "\n";
+  const std::vector<std::string> args{"-g", dir.file("g.graphbin"), "--extra", dir.file("loop.txt"),
+                                      "-q"};
   auto with = [&](std::vector<std::string> extra) {
     extra.insert(extra.begin(), args.begin(), args.end());
     return extra;
@@ -256,7 +267,8 @@ LoopResult optimizeDriftingLoop(const LoopScenario& sc, std::uint32_t seed, doub
   EXPECT_EQ(posegraph(with({"--tum", dir.file("id.tum"), "--identity-information"})).code, 0);
   std::vector<Eigen::Isometry3d> odometry;
   for (const auto& [id, T] : noisy.nodes) odometry.push_back(T);
-  return {ate(odometry, truth), ate(readTum(dir.file("id.tum")), truth), ate(readTum(dir.file("dba.tum")), truth)};
+  return {ate(odometry, truth), ate(readTum(dir.file("id.tum")), truth),
+          ate(readTum(dir.file("dba.tum")), truth)};
 }
 
 TEST(PoseGraphOptimizer, DbaInformationBeatsIdentityOnADriftingLoop) {
@@ -301,16 +313,19 @@ TEST(PoseGraphOptimizer, BadExtraConstraintsAreExplained) {
        ":1: the covariance is not positive definite"}};
   for (const auto& [text, message] : cases) {
     std::ofstream(dir.file("x.txt")) << text << "\n";
-    const AppResult r = posegraph({"-g", dir.file("g.graphbin"), "--extra", dir.file("x.txt"), "--tum", dir.file("o.tum")});
+    const AppResult r = posegraph(
+        {"-g", dir.file("g.graphbin"), "--extra", dir.file("x.txt"), "--tum", dir.file("o.tum")});
     EXPECT_EQ(r.code, 1) << text;
     EXPECT_TRUE(contains(r.err, dir.file("x.txt") + message)) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir.file("o.tum")));
   }
   // An absolute prior anchors the graph instead of the first node.
   const auto tq = poseToTQ(sc.graph.nodes.at(3));
-  std::ofstream(dir.file("abs.txt")) << "absolute 3 " << tq[0] << ' ' << tq[1] << ' ' << tq[2] << ' ' << tq[3] << ' '
-                                     << tq[4] << ' ' << tq[5] << ' ' << tq[6] << " 0.01 0.01\n";
-  const AppResult r = posegraph({"-g", dir.file("g.graphbin"), "--extra", dir.file("abs.txt"), "--tum", dir.file("o.tum"), "-q"});
+  std::ofstream(dir.file("abs.txt"))
+      << "absolute 3 " << tq[0] << ' ' << tq[1] << ' ' << tq[2] << ' ' << tq[3] << ' ' << tq[4]
+      << ' ' << tq[5] << ' ' << tq[6] << " 0.01 0.01\n";
+  const AppResult r = posegraph({"-g", dir.file("g.graphbin"), "--extra", dir.file("abs.txt"),
+                                 "--tum", dir.file("o.tum"), "-q"});
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(readTum(dir.file("o.tum")).size(), sc.graph.nodes.size());
   EXPECT_EQ(posegraph({"-g", dir.file("g.graphbin")}).code, 2);  // no output
@@ -330,7 +345,9 @@ TEST(PoseGraphOptimizer, ReachesTheWeightedOptimumOfATriangle) {
       Z01 * Z12 * expSE3((Vector6d() << 0.02, -0.01, 0.03, 0.02, 0.01, -0.02).finished());
   g.nodes[1] = g.nodes[0] * Z01;
   g.nodes[2] = g.nodes[1] * Z12;
-  g.edges = {{0, 1, Z01, randomInformation(rng)}, {1, 2, Z12, randomInformation(rng)}, {0, 2, Z02, randomInformation(rng)}};
+  g.edges = {{0, 1, Z01, randomInformation(rng)},
+             {1, 2, Z12, randomInformation(rng)},
+             {0, 2, Z02, randomInformation(rng)}};
   testing::TempDir dir;
   mrpt_bridge::writeGraphBinary(dir.file("g.graphbin"), g);
   writeNodes(dir.file("g.nodes.csv"), g);
@@ -343,7 +360,10 @@ TEST(PoseGraphOptimizer, ReachesTheWeightedOptimumOfATriangle) {
   for (int k = 1; k <= 2; ++k)
     EXPECT_LT(logSE3(want.at(k).inverse() * got[k]).norm(), 1e-3 * moved) << "node " << k;
   // MRPT 2.5.8 alone stops short of it (see optimizePoseGraph): the refinement is needed.
-  ASSERT_EQ(posegraph({"-g", dir.file("g.graphbin"), "--tum", dir.file("m.tum"), "--no-refine", "-q"}).code, 0);
+  ASSERT_EQ(
+      posegraph({"-g", dir.file("g.graphbin"), "--tum", dir.file("m.tum"), "--no-refine", "-q"})
+          .code,
+      0);
   EXPECT_GT(logSE3(want.at(2).inverse() * readTum(dir.file("m.tum"))[2]).norm(), 1e-2 * moved);
 }
 
@@ -353,7 +373,8 @@ TEST(PoseGraphOptimizer, ParallelEdgesAreFusedIntoTheirWeightedMean) {
   PoseGraph g;
   g.nodes[0] = expSE3((Vector6d() << 0.3, 0.1, -0.2, 0.4, -0.3, 1.2).finished());
   const Eigen::Isometry3d Za = expSE3((Vector6d() << 1.0, 0.2, 0.1, 0.1, 0.5, -0.3).finished());
-  const Eigen::Isometry3d Zb = Za * expSE3((Vector6d() << 0.02, -0.01, 0.03, 0.02, 0.01, -0.02).finished());
+  const Eigen::Isometry3d Zb =
+      Za * expSE3((Vector6d() << 0.02, -0.01, 0.03, 0.02, 0.01, -0.02).finished());
   const Matrix6d La = randomInformation(rng), Lb = randomInformation(rng);
   g.nodes[1] = g.nodes[0] * Za;
   g.edges = {{0, 1, Za, La}};
@@ -361,9 +382,12 @@ TEST(PoseGraphOptimizer, ParallelEdgesAreFusedIntoTheirWeightedMean) {
   mrpt_bridge::writeGraphBinary(dir.file("g.graphbin"), g);
   writeNodes(dir.file("g.nodes.csv"), g);
   // Given the other way round (1 → 0), to exercise the exact turning of an edge.
-  const Matrix6d Ad = adjoint(Zb.inverse());  // r_10 = −Ad(Z_01) r_01 ⇒ Λ_10 = Ad(Z_10)ᵀ Λ_01 Ad(Z_10)
-  std::ofstream(dir.file("b.txt")) << constraintLine("relative", 1, 0, Zb.inverse(), Ad.transpose() * Lb * Ad) << "\n";
-  const AppResult r = posegraph({"-g", dir.file("g.graphbin"), "--extra", dir.file("b.txt"), "--tum", dir.file("o.tum")});
+  const Matrix6d Ad =
+      adjoint(Zb.inverse());  // r_10 = −Ad(Z_01) r_01 ⇒ Λ_10 = Ad(Z_10)ᵀ Λ_01 Ad(Z_10)
+  std::ofstream(dir.file("b.txt"))
+      << constraintLine("relative", 1, 0, Zb.inverse(), Ad.transpose() * Lb * Ad) << "\n";
+  const AppResult r = posegraph(
+      {"-g", dir.file("g.graphbin"), "--extra", dir.file("b.txt"), "--tum", dir.file("o.tum")});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(contains(r.err, "1 merged into parallel edges")) << r.err;
   PoseGraph ref = g;
@@ -385,21 +409,25 @@ TEST(PoseGraphFiles, DbaCovarianceWritesTheGraphOfTheSequence) {
   testing::TempDir dir;
   std::vector<Snapshot> snaps;
   for (int i = 0; i < 3; ++i) {
-    auto syn = testing::writeTinySnapshot(dir.file("s" + std::to_string(i) + ".npz"), i + 1, i, 5 + i);
+    auto syn =
+        testing::writeTinySnapshot(dir.file("s" + std::to_string(i) + ".npz"), i + 1, i, 5 + i);
     snaps.push_back(syn.snapshot);
   }
-  const AppResult r = testing::runApp(app::runCovarianceApp, "dba-covariance",
-                                      {"-i", dir.path(), "--graph", dir.file("out/g"), "--weight-scale", "4"});
+  const AppResult r =
+      testing::runApp(app::runCovarianceApp, "dba-covariance",
+                      {"-i", dir.path(), "--graph", dir.file("out/g"), "--weight-scale", "4"});
   EXPECT_EQ(r.code, 1);  // the output directory does not exist: refused before any work
   EXPECT_TRUE(contains(r.err, "out/g.graphbin")) << r.err;
   std::filesystem::create_directory(dir.file("out"));
-  const AppResult ok = testing::runApp(app::runCovarianceApp, "dba-covariance",
-                                       {"-i", dir.path(), "--graph", dir.file("out/g"), "--weight-scale", "4"});
+  const AppResult ok =
+      testing::runApp(app::runCovarianceApp, "dba-covariance",
+                      {"-i", dir.path(), "--graph", dir.file("out/g"), "--weight-scale", "4"});
   ASSERT_EQ(ok.code, 0) << ok.err;
   EXPECT_TRUE(contains(ok.err, "1 keyframe pairs got no graph edge")) << ok.err;
   for (const char* ext : {".graphbin", ".graph", ".g2o", ".nodes.csv"})
     EXPECT_TRUE(std::filesystem::exists(dir.file(std::string("out/g") + ext))) << ext;
-  const PoseGraph g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(dir.file("out/g.graphbin")));
+  const PoseGraph g =
+      mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(dir.file("out/g.graphbin")));
   ASSERT_EQ(g.nodes.size(), 7u);
   // Nodes take their latest estimate; edges the last snapshot with both keyframes.
   for (int k = 0; k < 7; ++k)
@@ -413,7 +441,8 @@ TEST(PoseGraphFiles, DbaCovarianceWritesTheGraphOfTheSequence) {
     if (e.from >= 2) {  // pairs that the last snapshot does not fix
       Matrix6d expected;
       ASSERT_TRUE(informationOf(last.relative(e.from, e.to), &expected));
-      EXPECT_LT((e.information - expected).norm(), 1e-9 * expected.norm()) << e.from << "->" << e.to;
+      EXPECT_LT((e.information - expected).norm(), 1e-9 * expected.norm())
+          << e.from << "->" << e.to;
     }
   }
   const auto lines = testing::splitLines(testing::readFile(dir.file("out/g.nodes.csv")));

@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 #include <mrpt/obs/CObservationRobotPose.h>
 
-#include "snapshot_compare.h"
 #include "app_runner.h"
 #include "dbacov/app/covariance_app.h"
 #include "dbacov/app/droid2rawlog_app.h"
@@ -15,6 +14,7 @@
 #include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/rawlog_io.h"
 #include "fixtures.h"
+#include "snapshot_compare.h"
 #include "temp_dir.h"
 
 namespace dbacov {
@@ -42,8 +42,8 @@ AppResult droid2rawlog(const std::vector<std::string>& args) {
 
 /// The "Overall number of objects" line of `rawlog-edit --info`.
 int rawlogEditObjectCount(const std::string& rawlog, bool plugin) {
-  const AppResult r = testing::runCommand(kRawlogEdit + (plugin ? "-p " + kPlugin + " " : std::string()) +
-                                          "--info -i " + rawlog);
+  const AppResult r = testing::runCommand(
+      kRawlogEdit + (plugin ? "-p " + kPlugin + " " : std::string()) + "--info -i " + rawlog);
   const auto pos = r.out.find("Overall number of objects");
   if (r.code != 0 || pos == std::string::npos) return -1;
   return std::stoi(r.out.substr(r.out.find(':', pos) + 1));
@@ -96,7 +96,8 @@ TEST(Rawlog, RawlogEditReadsSnapshotsOnlyWithThePlugin) {
   EXPECT_EQ(rawlogEditObjectCount(dir.file("s.rawlog"), true), 3);
   // Without the plugin MRPT stops at the unknown class and still exits 0 (SPEC §6).
   EXPECT_LT(rawlogEditObjectCount(dir.file("s.rawlog"), false), 3);
-  const AppResult info = testing::runCommand(kRawlogEdit + "-p " + kPlugin + " --info -i " + dir.file("s.rawlog"));
+  const AppResult info =
+      testing::runCommand(kRawlogEdit + "-p " + kPlugin + " --info -i " + dir.file("s.rawlog"));
   EXPECT_TRUE(contains(info.out, "DBA_SNAPSHOT /      3")) << info.out;
 }
 
@@ -130,12 +131,16 @@ TEST(Rawlog, Droid2RawlogTimesAndInfo) {
 
 TEST(Rawlog, CorruptRawlogNamesFileAndEntry) {
   testing::TempDir dir;
-  for (int i = 0; i < 3; ++i) testing::writeTinySnapshot(dir.file("s" + std::to_string(i) + ".npz"), i + 1, i);
+  for (int i = 0; i < 3; ++i)
+    testing::writeTinySnapshot(dir.file("s" + std::to_string(i) + ".npz"), i + 1, i);
   ASSERT_EQ(droid2rawlog({"-i", dir.path(), "-o", dir.file("s.rawlog"), "-q"}).code, 0);
   // Truncate the (uncompressed) stream inside the third object: re-compress a cut copy.
   ASSERT_EQ(std::system(("cd " + dir.path() + " && gzip -dc s.rawlog | head -c " +
-                         std::to_string(2 * 18000 + 5000) + " | gzip > cut.rawlog").c_str()), 0);
-  const AppResult r = covariance({"-i", dir.file("cut.rawlog"), "--csv", dir.file("o.csv"), "--weight-scale", "4"});
+                         std::to_string(2 * 18000 + 5000) + " | gzip > cut.rawlog")
+                            .c_str()),
+            0);
+  const AppResult r =
+      covariance({"-i", dir.file("cut.rawlog"), "--csv", dir.file("o.csv"), "--weight-scale", "4"});
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(contains(r.err, "cut.rawlog: entry ")) << r.err;
   EXPECT_TRUE(contains(r.err, "snapshot record truncated in '")) << r.err;
@@ -148,13 +153,16 @@ TEST(Rawlog, CorruptRawlogNamesFileAndEntry) {
 TEST(Rawlog, ChainNpzToRawlogToPoseRawlog) {
   testing::TempDir dir;
   std::vector<sim::SyntheticSnapshot> syn;
-  for (int i = 0; i < 3; ++i) syn.push_back(testing::writeTinySnapshot(dir.file("s" + std::to_string(i) + ".npz"), i + 1, 10 + i, 5 + i));
+  for (int i = 0; i < 3; ++i)
+    syn.push_back(testing::writeTinySnapshot(dir.file("s" + std::to_string(i) + ".npz"), i + 1,
+                                             10 + i, 5 + i));
   ASSERT_EQ(droid2rawlog({"-i", dir.path(), "-o", dir.file("snap.rawlog"), "-q"}).code, 0);
   DbaOptions o = DbaOptions::droid();
   o.weight_scale = 4;
 
   // latest: the newest keyframe of each snapshot, mean T_wc, covariance J Σ Jᵀ.
-  AppResult r = covariance({"-i", dir.file("snap.rawlog"), "-o", dir.file("latest.rawlog"), "--weight-scale", "4", "-q"});
+  AppResult r = covariance({"-i", dir.file("snap.rawlog"), "-o", dir.file("latest.rawlog"),
+                            "--weight-scale", "4", "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
   auto poses = readPoses(dir.file("latest.rawlog"));
   ASSERT_EQ(poses.size(), 3u);
@@ -173,19 +181,22 @@ TEST(Rawlog, ChainNpzToRawlogToPoseRawlog) {
   }
 
   // all: every graph keyframe of every snapshot.
-  r = covariance({"-i", dir.file("snap.rawlog"), "-o", dir.file("all.rawlog"), "--weight-scale", "4", "--emit", "all", "--label", "X", "-q"});
+  r = covariance({"-i", dir.file("snap.rawlog"), "-o", dir.file("all.rawlog"), "--weight-scale",
+                  "4", "--emit", "all", "--label", "X", "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(readPoses(dir.file("all.rawlog")).size(), 5u + 6u + 7u);
   EXPECT_EQ(readPoses(dir.file("all.rawlog")).front()->sensorLabel, "X");
 
   // final: each keyframe once (7 distinct), in time order, from the last snapshot holding it.
-  r = covariance({"-i", dir.file("snap.rawlog"), "-o", dir.file("final.rawlog"), "--weight-scale", "4", "--emit", "final", "-q"});
+  r = covariance({"-i", dir.file("snap.rawlog"), "-o", dir.file("final.rawlog"), "--weight-scale",
+                  "4", "--emit", "final", "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
   poses = readPoses(dir.file("final.rawlog"));
   ASSERT_EQ(poses.size(), 7u);
   const DbaCovariance last(syn[2].snapshot, o);
   for (int k = 0; k < 7; ++k) {
-    EXPECT_DOUBLE_EQ(mrpt::Clock::toDouble(poses[k]->timestamp), (*syn[2].snapshot.timestamps_s)[k]);
+    EXPECT_DOUBLE_EQ(mrpt::Clock::toDouble(poses[k]->timestamp),
+                     (*syn[2].snapshot.timestamps_s)[k]);
     const auto expected = mrpt_bridge::toPoseGaussian(syn[2].snapshot.T_wc(k), last.marginal(k));
     EXPECT_NEAR((poses[k]->pose.cov - expected.cov).norm(), 0, 1e-12 * (1 + expected.cov.norm()));
   }
@@ -194,7 +205,8 @@ TEST(Rawlog, ChainNpzToRawlogToPoseRawlog) {
 TEST(Rawlog, SharedDroidSnapshotThroughTheChain) {
   if (!std::filesystem::exists(kShared)) GTEST_SKIP() << "missing " << kShared;
   testing::TempDir dir;
-  ASSERT_EQ(droid2rawlog({"-i", kShared, "-o", dir.file("snap.rawlog"), "--fps", "20", "-q"}).code, 0);
+  ASSERT_EQ(droid2rawlog({"-i", kShared, "-o", dir.file("snap.rawlog"), "--fps", "20", "-q"}).code,
+            0);
   EXPECT_EQ(rawlogEditObjectCount(dir.file("snap.rawlog"), true), 1);
   const AppResult r = covariance({"-i", dir.file("snap.rawlog"), "-o", dir.file("poses.rawlog"),
                                   "--emit", "all", "--csv", dir.file("c.csv"), "-q"});

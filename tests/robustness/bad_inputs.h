@@ -28,10 +28,13 @@ using NpzArrays = std::vector<std::pair<std::string, io::NpyArray>>;
 inline NpzArrays snapshotArrays(const Snapshot& s) {
   const std::size_t N = s.numKeyframes(), E = s.numEdges(), H = s.H, W = s.W;
   NpzArrays a;
-  a.emplace_back("poses",
-                 io::makeNpy(std::vector<double>(s.poses_cw.data(), s.poses_cw.data() + N * 7), {N, 7}));
+  a.emplace_back(
+      "poses",
+      io::makeNpy(std::vector<double>(s.poses_cw.data(), s.poses_cw.data() + N * 7), {N, 7}));
   a.emplace_back("disps", io::makeNpy(s.disps, {N, H, W}));
-  a.emplace_back("intrinsics", io::makeNpy(std::vector<float>(s.intrinsics.data(), s.intrinsics.data() + 4), {4}));
+  a.emplace_back(
+      "intrinsics",
+      io::makeNpy(std::vector<float>(s.intrinsics.data(), s.intrinsics.data() + 4), {4}));
   a.emplace_back("ii", io::makeNpy(s.ii, {E}));
   a.emplace_back("jj", io::makeNpy(s.jj, {E}));
   a.emplace_back("target", io::makeNpy(s.target, {E, 2, H, W}));
@@ -118,7 +121,14 @@ inline std::vector<unsigned char> rawNpy(const std::string& dict, std::size_t da
   while ((10 + header.size() + 1) % 64) header += ' ';
   header += '\n';
   std::vector<unsigned char> b(10 + header.size() + data_bytes, 0);
-  const unsigned char preamble[10] = {0x93, 'N', 'U', 'M', 'P', 'Y', 1, 0,
+  const unsigned char preamble[10] = {0x93,
+                                      'N',
+                                      'U',
+                                      'M',
+                                      'P',
+                                      'Y',
+                                      1,
+                                      0,
                                       static_cast<unsigned char>(header.size() & 0xff),
                                       static_cast<unsigned char>(header.size() >> 8)};
   std::copy(preamble, preamble + 10, b.begin());
@@ -171,7 +181,8 @@ inline std::vector<unsigned char> storedZip(const std::vector<ZipMember>& member
   }
   const std::uint32_t cd_offset = static_cast<std::uint32_t>(out.size());
   out.insert(out.end(), cd.begin(), cd.end());
-  const std::uint16_t n = declared_entries ? declared_entries : static_cast<std::uint16_t>(members.size());
+  const std::uint16_t n =
+      declared_entries ? declared_entries : static_cast<std::uint16_t>(members.size());
   put(out, 0x06054b50, 4);
   put(out, 0, 2), put(out, 0, 2), put(out, n, 2), put(out, n, 2);
   put(out, cd.size(), 4), put(out, cd_offset, 4), put(out, 0, 2);
@@ -191,10 +202,15 @@ inline std::vector<unsigned char> readBytes(const std::string& path) {
 }
 inline void writeBytes(const std::string& path, const std::vector<unsigned char>& bytes) {
   std::ofstream(path, std::ios::binary)
-      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+      .write(reinterpret_cast<const char*>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size()));
 }
 
-inline double quietNan() { return std::numeric_limits<double>::quiet_NaN(); }
-inline double infinity() { return std::numeric_limits<double>::infinity(); }
+inline double quietNan() {
+  return std::numeric_limits<double>::quiet_NaN();
+}
+inline double infinity() {
+  return std::numeric_limits<double>::infinity();
+}
 
 }  // namespace dbacov::testing

@@ -7,8 +7,8 @@
 #include <functional>
 #include <set>
 
-#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
 
 #include "app_runner.h"
 #include "dbacov/app/covariance_app.h"
@@ -34,8 +34,10 @@ void keepEdges(Snapshot& s, const std::function<bool(std::int64_t, std::int64_t)
     if (!keep(s.ii[e], s.jj[e])) continue;
     out.ii.push_back(s.ii[e]);
     out.jj.push_back(s.jj[e]);
-    out.target.insert(out.target.end(), s.target.begin() + e * plane, s.target.begin() + (e + 1) * plane);
-    out.weight.insert(out.weight.end(), s.weight.begin() + e * plane, s.weight.begin() + (e + 1) * plane);
+    out.target.insert(out.target.end(), s.target.begin() + e * plane,
+                      s.target.begin() + (e + 1) * plane);
+    out.weight.insert(out.weight.end(), s.weight.begin() + e * plane,
+                      s.weight.begin() + (e + 1) * plane);
   }
   s = out;
 }
@@ -47,7 +49,9 @@ struct BadGraph {
   std::string expected;  ///< the error after "<path> (snapshot 2): ", "" = processed normally
 };
 
-void PrintTo(const BadGraph& c, std::ostream* os) { *os << c.name; }
+void PrintTo(const BadGraph& c, std::ostream* os) {
+  *os << c.name;
+}
 
 std::vector<BadGraph> corpus() {
   return {
@@ -73,20 +77,25 @@ std::vector<BadGraph> corpus() {
       // Degenerate but valid: computed (first-order covariances of a nearly or exactly
       // unobservable geometry); DegenerateGeometryGivesHugeFiniteCovariances checks the values.
       {"all_depths_at_the_clamp",
-       [](Snapshot& s) { std::fill(s.disps.begin(), s.disps.end(), 0.001f); }, {}, ""},
+       [](Snapshot& s) { std::fill(s.disps.begin(), s.disps.end(), 0.001f); },
+       {},
+       ""},
       {"zero_baseline",
        [](Snapshot& s) {
          for (int k = 1; k < s.numKeyframes(); ++k) s.poses_cw.row(k) = s.poses_cw.row(0);
        },
-       {}, ""},
+       {},
+       ""},
       {"zero_baseline_minimal_gauge",
-       [](Snapshot& s) { s.poses_cw.row(1) = s.poses_cw.row(0); }, {"--gauge", "minimal"},
+       [](Snapshot& s) { s.poses_cw.row(1) = s.poses_cw.row(0); },
+       {"--gauge", "minimal"},
        "minimal gauge: keyframes 0, 1 share one centre, so their distance cannot fix the scale"},
       {"one_edge_without_weights",
        [](Snapshot& s) {
          std::fill(s.weight.begin(), s.weight.begin() + 2 * s.pixelsPerFrame(), 0.0f);
        },
-       {}, ""},
+       {},
+       ""},
   };
 }
 
@@ -101,12 +110,20 @@ TEST_P(BadGraphTest, IsRefusedWithTheKeyframesOrProcessedAndTheOthersAreWritten)
   c.edit(bad);
   io::saveSnapshotNpz(dir.file("in/b.npz"), bad);
   testing::writeTinySnapshot(dir.file("in/c.npz"), 3, 3);
-  std::vector<std::string> args{"-i", dir.file("in"), "--csv", dir.file("k.csv"), "--relative-csv",
-                                dir.file("r.csv"), "--depth-sigma", dir.file("sigma"),
-                                "--weight-scale", "4"};
+  std::vector<std::string> args{"-i",
+                                dir.file("in"),
+                                "--csv",
+                                dir.file("k.csv"),
+                                "--relative-csv",
+                                dir.file("r.csv"),
+                                "--depth-sigma",
+                                dir.file("sigma"),
+                                "--weight-scale",
+                                "4"};
   args.insert(args.end(), c.extra_args.begin(), c.extra_args.end());
   const AppResult r = run(args);
-  const std::string csv = testing::readFile(dir.file("k.csv")) + testing::readFile(dir.file("r.csv"));
+  const std::string csv =
+      testing::readFile(dir.file("k.csv")) + testing::readFile(dir.file("r.csv"));
   EXPECT_EQ(csv.find("nan"), std::string::npos);
   std::set<std::string> ids;
   for (const auto& line : testing::splitLines(testing::readFile(dir.file("k.csv"))))
@@ -119,7 +136,8 @@ TEST_P(BadGraphTest, IsRefusedWithTheKeyframesOrProcessedAndTheOthersAreWritten)
   }
   // The summary keeps the first clause of the reason when it is not too short (run_summary.h).
   const std::size_t colon = c.expected.find(": ");
-  const std::string reason = colon != std::string::npos && colon >= 20 ? c.expected.substr(0, colon) : c.expected;
+  const std::string reason =
+      colon != std::string::npos && colon >= 20 ? c.expected.substr(0, colon) : c.expected;
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "dba-covariance: error: " + dir.file("in/b.npz") + " (snapshot 2): " +
                        c.expected + "\ndba-covariance: 3 snapshots read, 2 processed, 1 failed: " +
@@ -141,12 +159,14 @@ TEST(BadGraphs, ValuesThatOverflowDoublePrecisionGiveANumericalErrorNotNaN) {
     double value;
     std::string error;
   };
-  for (const Case& c : std::vector<Case>{
-           {0, 1e153, "the information matrix has non-finite entries at keyframe 0: the "
-                      "snapshot's values overflow double precision in the DBA factor "
-                      "(intrinsics, poses or inverse depths far out of range)"},
-           {2, 1e140, "the covariances of keyframes 4, 5 overflow double precision (the "
-                      "information matrix is numerically singular)"}}) {
+  for (const Case& c :
+       std::vector<Case>{{0, 1e153,
+                          "the information matrix has non-finite entries at keyframe 0: the "
+                          "snapshot's values overflow double precision in the DBA factor "
+                          "(intrinsics, poses or inverse depths far out of range)"},
+                         {2, 1e140,
+                          "the covariances of keyframes 4, 5 overflow double precision (the "
+                          "information matrix is numerically singular)"}}) {
     SCOPED_TRACE(c.error);
     Snapshot s = testing::tinySnapshot(2, 2).snapshot;
     s.intrinsics[c.intrinsic] = c.value;

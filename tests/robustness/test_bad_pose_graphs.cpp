@@ -59,7 +59,9 @@ std::vector<BadGraph> badGraphs() {
   };
 }
 
-void PrintTo(const BadGraph& c, std::ostream* os) { *os << c.name; }
+void PrintTo(const BadGraph& c, std::ostream* os) {
+  *os << c.name;
+}
 
 testing::AppResult posegraph(const std::vector<std::string>& args) {
   return testing::runApp(app::runPoseGraphApp, "dba-posegraph", args);
@@ -68,7 +70,8 @@ testing::AppResult posegraph(const std::vector<std::string>& args) {
 TEST(BadPoseGraph, TheGoodGraphIsOptimized) {
   testing::TempDir dir;
   mrpt_bridge::writeGraphBinary(dir.file("g.graphbin"), goodGraph());
-  std::ofstream(dir.file("g.nodes.csv")) << "node,tstamp,time_s\n0,0,0\n1,1,0.1\n2,2,0.2\n3,3,0.3\n";
+  std::ofstream(dir.file("g.nodes.csv"))
+      << "node,tstamp,time_s\n0,0,0\n1,1,0.1\n2,2,0.2\n3,3,0.3\n";
   const testing::AppResult r =
       posegraph({"-g", dir.file("g.graphbin"), "-o", dir.file("o.rawlog"), "-q"});
   EXPECT_EQ(r.code, 0) << r.err;
@@ -100,15 +103,17 @@ TEST(BadPoseGraph, DamagedFilesAreExplained) {
   std::ofstream(dir.file("cut.graphbin"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   std::ofstream(dir.file("text.graphbin")) << "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n";
   for (const auto& [file, error] : std::vector<std::pair<std::string, std::string>>{
-           {"cut.graphbin", "not a binary CNetworkOfPoses3DInf ((EOF?) Cannot read requested "
-                            "number of bytes from stream)"},
+           {"cut.graphbin",
+            "not a binary CNetworkOfPoses3DInf ((EOF?) Cannot read requested "
+            "number of bytes from stream)"},
            {"missing.graphbin", "cannot open for reading"}}) {
     SCOPED_TRACE(file);
     const testing::AppResult r = posegraph({"-g", dir.file(file), "-o", dir.file("o.rawlog")});
     EXPECT_EQ(r.code, 1);
     EXPECT_EQ(r.err, "dba-posegraph: error: " + dir.file(file) + ": " + error + "\n");
   }
-  const testing::AppResult r = posegraph({"-g", dir.file("text.graphbin"), "-o", dir.file("o.rawlog")});
+  const testing::AppResult r =
+      posegraph({"-g", dir.file("text.graphbin"), "-o", dir.file("o.rawlog")});
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err.rfind("dba-posegraph: error: " + dir.file("text.graphbin") +
                             ": not a binary CNetworkOfPoses3DInf (",

@@ -27,13 +27,15 @@ using testing::RecordBytes;
 struct BadRawlog {
   std::string name;
   std::function<void(const std::string& path)> make;
-  std::string expected;   ///< the error line after "dba-covariance: error: <path>"
+  std::string expected;    ///< the error line after "dba-covariance: error: <path>"
   int good_in_rawlog = 0;  ///< snapshots of the rawlog that are still processed
-  std::string failed_as;  ///< the summary's name of the failed snapshot
-  bool regex = false;     ///< `expected` is a regular expression (the damage depends on zlib)
+  std::string failed_as;   ///< the summary's name of the failed snapshot
+  bool regex = false;      ///< `expected` is a regular expression (the damage depends on zlib)
 };
 
-void PrintTo(const BadRawlog& c, std::ostream* os) { *os << c.name; }
+void PrintTo(const BadRawlog& c, std::ostream* os) {
+  *os << c.name;
+}
 
 const Snapshot& good(int seed) {
   static std::map<int, Snapshot> cache;
@@ -66,9 +68,12 @@ std::vector<BadRawlog> corpus() {
   return {
       {"empty", [](const std::string& p) { testing::writeBytes(p, {}); },
        ": holds no DBA snapshot (0 objects of other classes), expected the CObservationDbaSnapshot "
-       "entries that droid2rawlog writes", 0, "bad.rawlog"},
-      {"text", [](const std::string& p) { testing::writeBytes(p, std::vector<unsigned char>(300, 'x')); },
-       ": entry 0 cannot be read: not an object in MRPT's serialization format (a rawlog written by "
+       "entries that droid2rawlog writes",
+       0, "bad.rawlog"},
+      {"text",
+       [](const std::string& p) { testing::writeBytes(p, std::vector<unsigned char>(300, 'x')); },
+       ": entry 0 cannot be read: not an object in MRPT's serialization format (a rawlog written "
+       "by "
        "MRPT >= 0.5.5 is expected)",
        0, "bad.rawlog"},
       {"gz_truncated",
@@ -78,7 +83,8 @@ std::vector<BadRawlog> corpus() {
          b.resize(b.size() / 2);
          testing::writeBytes(p, b);
        },
-       ": entry 0 cannot be read: snapshot record truncated in '[a-z_]+': it declares [0-9]+ values "
+       ": entry 0 cannot be read: snapshot record truncated in '[a-z_]+': it declares [0-9]+ "
+       "values "
        "\\([0-9]+ bytes\\) but the stream ends after [0-9]+ bytes",
        0, "bad.rawlog", true},
       {"gz_cut_at_flush_point",
@@ -114,8 +120,7 @@ std::vector<BadRawlog> corpus() {
        ": entry 0 cannot be read: an object of class dbacov::COBservationDbaSnapshot, expected "
        "CObservationDbaSnapshot (plain or in CSensoryFrames)",
        0, "bad.rawlog"},
-      {"unknown_version",
-       record([](RecordBytes& r) { r.bytes[r.label_at - 9] = 3; }),
+      {"unknown_version", record([](RecordBytes& r) { r.bytes[r.label_at - 9] = 3; }),
        ": entry 0 cannot be read: Cannot parse object: unknown serialization version number: '3'",
        0, "bad.rawlog"},
       {"second_entry_cut", twoRecords([](RecordBytes& r) { r.bytes.resize(r.sizes_at + 40); }),
@@ -164,21 +169,22 @@ TEST_P(BadRawlogTest, IsExplainedAndTheGoodSnapshotsAreWritten) {
   io::saveSnapshotNpz(dir.file("a.npz"), good(1));
   c.make(dir.file("bad.rawlog"));
   io::saveSnapshotNpz(dir.file("c.npz"), good(3));
-  const testing::AppResult r = testing::runApp(
-      app::runCovarianceApp, "dba-covariance",
-      {"-i", dir.file("a.npz"), "-i", dir.file("bad.rawlog"), "-i", dir.file("c.npz"), "--csv",
-       dir.file("k.csv"), "--weight-scale", "4"});
+  const testing::AppResult r =
+      testing::runApp(app::runCovarianceApp, "dba-covariance",
+                      {"-i", dir.file("a.npz"), "-i", dir.file("bad.rawlog"), "-i",
+                       dir.file("c.npz"), "--csv", dir.file("k.csv"), "--weight-scale", "4"});
   EXPECT_EQ(r.code, 1);
   const int read = 3 + c.good_in_rawlog, processed = 2 + c.good_in_rawlog;
   const std::string summary = "dba-covariance: " + std::to_string(read) + " snapshots read, " +
-                              std::to_string(processed) + " processed, 1 failed: 1 invalid input (" +
-                              c.failed_as + ")\n";
+                              std::to_string(processed) +
+                              " processed, 1 failed: 1 invalid input (" + c.failed_as + ")\n";
   const std::string error = "dba-covariance: error: " + dir.file("bad.rawlog");
   if (c.regex) {
     const auto lines = testing::splitLines(r.err);
     ASSERT_EQ(lines.size(), 2u) << r.err;
     EXPECT_EQ(lines[0].substr(0, error.size()), error);
-    EXPECT_TRUE(std::regex_match(lines[0].substr(error.size()), std::regex(c.expected))) << lines[0];
+    EXPECT_TRUE(std::regex_match(lines[0].substr(error.size()), std::regex(c.expected)))
+        << lines[0];
     EXPECT_EQ(lines[1] + "\n", summary);
   } else {
     EXPECT_EQ(r.err, error + c.expected + "\n" + summary);
@@ -186,7 +192,8 @@ TEST_P(BadRawlogTest, IsExplainedAndTheGoodSnapshotsAreWritten) {
   EXPECT_EQ(r.err.find("Call stack"), std::string::npos);
   std::vector<std::string> ids;
   for (const auto& line : testing::splitLines(testing::readFile(dir.file("k.csv"))))
-    if (ids.empty() || testing::splitCsv(line)[0] != ids.back()) ids.push_back(testing::splitCsv(line)[0]);
+    if (ids.empty() || testing::splitCsv(line)[0] != ids.back())
+      ids.push_back(testing::splitCsv(line)[0]);
   std::vector<std::string> expected{"snapshot", "101"};
   if (c.good_in_rawlog) expected.push_back("105");
   expected.push_back("103");

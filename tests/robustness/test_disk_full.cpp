@@ -36,10 +36,10 @@ TEST(DiskFull, AnOutputThatFailsMidRunIsGivenUpAndTheOthersGoOn) {
   EXPECT_EQ(r.code, 1);
   const std::vector<std::string> lines = testing::splitLines(r.out);
   ASSERT_EQ(lines.size(), 4u) << r.out;
-  const std::string snapshot = "dba-covariance: error: " + dir.file("in") +
-                               "/s[0-9]+\\.npz \\(snapshot [0-9]+\\): ";
-  EXPECT_TRUE(std::regex_match(lines[0], std::regex(snapshot + dir.file("k.csv") +
-                                                    ": write failed: File too large")))
+  const std::string snapshot =
+      "dba-covariance: error: " + dir.file("in") + "/s[0-9]+\\.npz \\(snapshot [0-9]+\\): ";
+  EXPECT_TRUE(std::regex_match(
+      lines[0], std::regex(snapshot + dir.file("k.csv") + ": write failed: File too large")))
       << lines[0];
   EXPECT_TRUE(std::regex_match(lines[1], std::regex(snapshot + dir.file("p.rawlog") +
                                                     ": write failed: File too large \\(at entry "
@@ -51,7 +51,8 @@ TEST(DiskFull, AnOutputThatFailsMidRunIsGivenUpAndTheOthersGoOn) {
       lines[3], std::regex("dba-covariance: 30 snapshots read, 28 processed, 2 failed: 2 output "
                            "\\(s[0-9]+\\.npz, s[0-9]+\\.npz\\); 2 outputs not written")))
       << lines[3];
-  for (const char* name : {"k.csv", "p.rawlog"}) EXPECT_EQ(testing::readFile(dir.file(name)), "previous");
+  for (const char* name : {"k.csv", "p.rawlog"})
+    EXPECT_EQ(testing::readFile(dir.file(name)), "previous");
   EXPECT_TRUE(std::filesystem::exists(dir.file("g.graphbin")));  // the graph was still written
   EXPECT_EQ(dir.entries(), (std::vector<std::string>{"g.g2o", "g.graph", "g.graphbin",
                                                      "g.nodes.csv", "in", "k.csv", "p.rawlog"}));

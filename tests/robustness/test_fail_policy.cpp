@@ -45,11 +45,21 @@ struct Inputs {
     std::fill(d.weight.begin(), d.weight.begin() + 4 * 2 * d.pixelsPerFrame(), 0.0f);
     for (int e = 0; e < d.numEdges(); ++e)  // keyframe 5 loses every weighted pixel
       if (d.ii[e] == 5 || d.jj[e] == 5)
-        std::fill(d.weight.begin() + e * 2 * d.pixelsPerFrame(), d.weight.begin() + (e + 1) * 2 * d.pixelsPerFrame(), 0.0f);
+        std::fill(d.weight.begin() + e * 2 * d.pixelsPerFrame(),
+                  d.weight.begin() + (e + 1) * 2 * d.pixelsPerFrame(), 0.0f);
     io::saveSnapshotNpz(dir.file("in/d.npz"), d);
-    outputs = {"--csv", dir.file("k.csv"), "--relative-csv", dir.file("r.csv"), "-o", dir.file("p.rawlog"),
-               "--graph", dir.file("g"), "--depth-sigma", dir.file("sigma")};
-    for (const char* name : {"k.csv", "r.csv", "p.rawlog", "g.graphbin", "g.graph", "g.g2o", "g.nodes.csv"})
+    outputs = {"--csv",
+               dir.file("k.csv"),
+               "--relative-csv",
+               dir.file("r.csv"),
+               "-o",
+               dir.file("p.rawlog"),
+               "--graph",
+               dir.file("g"),
+               "--depth-sigma",
+               dir.file("sigma")};
+    for (const char* name :
+         {"k.csv", "r.csv", "p.rawlog", "g.graphbin", "g.graph", "g.g2o", "g.nodes.csv"})
       std::ofstream(dir.file(name)) << "previous " << name;
   }
   std::vector<std::string> args(std::initializer_list<std::string> extra) const {
@@ -59,10 +69,12 @@ struct Inputs {
     return a;
   }
   bool untouched() const {
-    for (const char* name : {"k.csv", "r.csv", "p.rawlog", "g.graphbin", "g.graph", "g.g2o", "g.nodes.csv"})
+    for (const char* name :
+         {"k.csv", "r.csv", "p.rawlog", "g.graphbin", "g.graph", "g.g2o", "g.nodes.csv"})
       if (testing::readFile(dir.file(name)) != std::string("previous ") + name) return false;
-    return dir.entries() == std::vector<std::string>{"g.g2o", "g.graph", "g.graphbin", "g.nodes.csv",
-                                                     "in", "k.csv", "p.rawlog", "r.csv"};
+    return dir.entries() == std::vector<std::string>{"g.g2o",       "g.graph", "g.graphbin",
+                                                     "g.nodes.csv", "in",      "k.csv",
+                                                     "p.rawlog",    "r.csv"};
   }
 };
 
@@ -99,8 +111,10 @@ TEST(FailPolicy, KeepGoingIsTheDefaultAndWritesEveryGoodSnapshot) {
                 "dba-covariance: 4 snapshots read, 2 processed, 2 failed: 1 invalid input (b.npz), "
                 "1 numerical (d.npz: no gauge reaches keyframes 5)\n");
     }
-    EXPECT_NE(r.err.find("dba-covariance: error: " + d + " (snapshot 4): no gauge reaches keyframes 5: "),
-              std::string::npos) << r.err;
+    EXPECT_NE(
+        r.err.find("dba-covariance: error: " + d + " (snapshot 4): no gauge reaches keyframes 5: "),
+        std::string::npos)
+        << r.err;
     std::set<std::string> ids;
     for (const auto& line : testing::splitLines(testing::readFile(run.dir.file("k.csv"))))
       ids.insert(testing::splitCsv(line)[0]);
@@ -117,7 +131,8 @@ TEST(FailPolicy, FailFastWithoutFailureWritesEverything) {
   fs::remove(run.dir.file("in/d.npz"));
   const AppResult r = covariance(run.args({"--fail-fast"}));
   EXPECT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(r.err, std::string(kGaugeNote) + "dba-covariance: 2 snapshots read, 2 processed, 0 failed\n");
+  EXPECT_EQ(r.err,
+            std::string(kGaugeNote) + "dba-covariance: 2 snapshots read, 2 processed, 0 failed\n");
   EXPECT_EQ(testing::splitLines(testing::readFile(run.dir.file("k.csv"))).size(), 1u + 12);
 }
 
@@ -125,7 +140,9 @@ TEST(FailPolicy, BothPoliciesAtOnceIsBadUsage) {
   Inputs run;
   EXPECT_EQ(covariance(run.args({"--fail-fast", "--keep-going"})).code, 2);
   EXPECT_EQ(droid2rawlog({"-i", run.dir.file("in"), "-o", run.dir.file("s.rawlog"), "--fail-fast",
-                          "--keep-going"}).code, 2);
+                          "--keep-going"})
+                .code,
+            2);
   EXPECT_TRUE(run.untouched());
 }
 
@@ -142,18 +159,21 @@ TEST(FailPolicy, AnOutputThatCannotBeCommittedDoesNotStopTheOthers) {
   EXPECT_EQ(lines[1] + "\n", kGaugeNote);
   EXPECT_EQ(lines[0], "dba-covariance: error: " + run.dir.file("g.graph") +
                           ": is a directory, expected a file path");
-  EXPECT_EQ(lines[2], "dba-covariance: 2 snapshots read, 2 processed, 0 failed; 1 output not written");
+  EXPECT_EQ(lines[2],
+            "dba-covariance: 2 snapshots read, 2 processed, 0 failed; 1 output not written");
   // The sinks after the graph were still committed.
   EXPECT_EQ(testing::splitLines(testing::readFile(run.dir.file("k.csv"))).size(), 1u + 12);
   EXPECT_NE(testing::readFile(run.dir.file("p.rawlog")), "previous p.rawlog");
   EXPECT_TRUE(fs::exists(run.dir.file("sigma/3_2.npy")));
-  for (const auto& name : run.dir.entries()) EXPECT_EQ(name.find(".tmp."), std::string::npos) << name;
+  for (const auto& name : run.dir.entries())
+    EXPECT_EQ(name.find(".tmp."), std::string::npos) << name;
 }
 
 TEST(FailPolicy, Droid2RawlogFailFastWritesNoRawlog) {
   Inputs run;
   std::ofstream(run.dir.file("s.rawlog")) << "previous";
-  AppResult r = droid2rawlog({"-i", run.dir.file("in"), "-o", run.dir.file("s.rawlog"), "--fail-fast"});
+  AppResult r =
+      droid2rawlog({"-i", run.dir.file("in"), "-o", run.dir.file("s.rawlog"), "--fail-fast"});
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "droid2rawlog: error: " + run.dir.file("in/b.npz") +
                        ": cannot open as a .npz (zip) archive: Not a zip archive\n"
@@ -166,7 +186,8 @@ TEST(FailPolicy, Droid2RawlogFailFastWritesNoRawlog) {
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err.substr(r.err.find('\n') + 1),
             "droid2rawlog: 4 snapshots read, 3 processed, 1 failed: 1 invalid input (b.npz); 3 "
-            "written to " + run.dir.file("s.rawlog") + "\n");
+            "written to " +
+                run.dir.file("s.rawlog") + "\n");
   const AppResult info = droid2rawlog({"--info", run.dir.file("s.rawlog")});
   EXPECT_EQ(info.code, 0) << info.err;
   EXPECT_EQ(testing::splitLines(info.out).size(), 3u);

@@ -81,7 +81,8 @@ TEST(HugeSizes, NpyHeadersDeclaringMoreThanTheMemberHoldsAreRefusedBeforeAllocat
     testing::TempDir dir;
     testing::writeBytes(dir.file("s.npz"),
                         withMember(c.key, testing::rawNpy("{'descr': '<f4', 'fortran_order': "
-                                                          "False, 'shape': " + c.shape + ", }",
+                                                          "False, 'shape': " +
+                                                              c.shape + ", }",
                                                           64)));
     const auto [message, largest] = npzRefusal(dir.file("s.npz"));
     EXPECT_EQ(message, dir.file("s.npz") + ": key '" + c.key + "': " + c.error);
@@ -119,17 +120,20 @@ TEST(HugeSizes, ZipDirectoryDeclaringAHugeMemberIsRefusedBeforeAllocation) {
 
 TEST(HugeSizes, ZipEndRecordDeclaringManyEntriesIsRefused) {
   testing::TempDir dir;
-  const auto members = testing::npyMembers(testing::snapshotArrays(testing::tinySnapshot(1, 1).snapshot));
+  const auto members =
+      testing::npyMembers(testing::snapshotArrays(testing::tinySnapshot(1, 1).snapshot));
   testing::writeBytes(dir.file("s.npz"), testing::storedZip(members, 65535));
   const auto [message, largest] = npzRefusal(dir.file("s.npz"));
-  EXPECT_EQ(message, dir.file("s.npz") + ": cannot open as a .npz (zip) archive: Zip archive inconsistent");
+  EXPECT_EQ(message,
+            dir.file("s.npz") + ": cannot open as a .npz (zip) archive: Zip archive inconsistent");
   EXPECT_LT(largest, kMiB);
 }
 
 TEST(HugeSizes, RawlogRecordDeclaringHugeSizesIsRefusedBeforeAllocation) {
   testing::TempDir dir;
-  testing::writeRecord(dir.file("s.rawlog"), testing::tinySnapshot(1, 1).snapshot,
-                       [](testing::RecordBytes& r) { r.setSizes(2000000000, 30000, 30000, 2000000000); });
+  testing::writeRecord(
+      dir.file("s.rawlog"), testing::tinySnapshot(1, 1).snapshot,
+      [](testing::RecordBytes& r) { r.setSizes(2000000000, 30000, 30000, 2000000000); });
   const auto [message, largest] = rawlogRefusal(dir.file("s.rawlog"));
   EXPECT_EQ(message, dir.file("s.rawlog") +
                          ": entry 0 cannot be read: snapshot record declares N=2000000000, "

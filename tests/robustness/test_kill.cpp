@@ -132,10 +132,27 @@ TEST_P(KillTest, MidRunLeavesThePreviousOutputsAndNoTemporary) {
   const auto before = snapshotOf(dir.file("out"));
   ASSERT_EQ(::mkfifo(dir.file("in.rawlog").c_str(), 0600), 0);
   const std::string o = dir.file("out/");
-  const pid_t pid = spawn({kBin + "dba-covariance", "-i", dir.file("in.rawlog"), "--csv", o + "k.csv",
-                           "--relative-csv", o + "r.csv", "-o", o + "p.rawlog", "--graph", o + "g",
-                           "--depth-sigma", o + "sigma", "--snapshot", o + "scene.png",
-                           "--snapshot-every", "2", "--snapshot-size", "64x48", "--weight-scale", "4"},
+  const pid_t pid = spawn({kBin + "dba-covariance",
+                           "-i",
+                           dir.file("in.rawlog"),
+                           "--csv",
+                           o + "k.csv",
+                           "--relative-csv",
+                           o + "r.csv",
+                           "-o",
+                           o + "p.rawlog",
+                           "--graph",
+                           o + "g",
+                           "--depth-sigma",
+                           o + "sigma",
+                           "--snapshot",
+                           o + "scene.png",
+                           "--snapshot-every",
+                           "2",
+                           "--snapshot-size",
+                           "64x48",
+                           "--weight-scale",
+                           "4"},
                           dir.file("log.txt"));
   ASSERT_GT(pid, 0);
   const int fd = openFeed(pid, dir.file("in.rawlog"));
@@ -157,7 +174,7 @@ TEST_P(KillTest, MidRunLeavesThePreviousOutputsAndNoTemporary) {
 
 INSTANTIATE_TEST_SUITE_P(Signals, KillTest, ::testing::Values(SIGKILL, SIGTERM, SIGINT),
                          [](const auto& p) {
-                           return std::string(p.param == SIGKILL ? "SIGKILL"
+                           return std::string(p.param == SIGKILL   ? "SIGKILL"
                                               : p.param == SIGTERM ? "SIGTERM"
                                                                    : "SIGINT");
                          });
@@ -185,8 +202,8 @@ pid_t childNamed(pid_t parent, const std::string& name) {
 TEST(Kill, WhileGnuplotDrawsThePlotsLeavesThePreviousFigures) {
   testing::TempDir dir;
   fs::create_directories(dir.file("plots/depth_sigma"));
-  for (const char* name : {"keyframes.csv", "pose_sigmas.png", "covariance_covisibility.png",
-                           "depth_sigma/0_2.png"})
+  for (const char* name :
+       {"keyframes.csv", "pose_sigmas.png", "covariance_covisibility.png", "depth_sigma/0_2.png"})
     std::ofstream(dir.file(std::string("plots/") + name)) << "previous " << name;
   const auto before = snapshotOf(dir.file("plots"));
   ASSERT_EQ(::mkfifo(dir.file("in.rawlog").c_str(), 0600), 0);

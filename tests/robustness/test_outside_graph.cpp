@@ -27,22 +27,37 @@ struct Named {
 
 Named runAllOutputs(const testing::TempDir& dir, const std::string& input,
                     const std::vector<std::string>& extra) {
-  std::vector<std::string> args{"-i", input, "--csv", dir.file("k.csv"), "--relative-csv",
-                                dir.file("r.csv"), "-o", dir.file("p.rawlog"), "--emit", "all",
-                                "--graph", dir.file("g"), "--depth-sigma", dir.file("sigma"), "-q"};
+  std::vector<std::string> args{"-i",
+                                input,
+                                "--csv",
+                                dir.file("k.csv"),
+                                "--relative-csv",
+                                dir.file("r.csv"),
+                                "-o",
+                                dir.file("p.rawlog"),
+                                "--emit",
+                                "all",
+                                "--graph",
+                                dir.file("g"),
+                                "--depth-sigma",
+                                dir.file("sigma"),
+                                "-q"};
   args.insert(args.end(), extra.begin(), extra.end());
   const testing::AppResult r = testing::runApp(app::runCovarianceApp, "dba-covariance", args);
   EXPECT_EQ(r.code, 0) << r.err;
   Named n;
   const auto rows = testing::splitLines(testing::readFile(dir.file("k.csv")));
-  for (std::size_t i = 1; i < rows.size(); ++i) n.csv.insert(std::stoi(testing::splitCsv(rows[i])[1]));
+  for (std::size_t i = 1; i < rows.size(); ++i)
+    n.csv.insert(std::stoi(testing::splitCsv(rows[i])[1]));
   const auto pairs = testing::splitLines(testing::readFile(dir.file("r.csv")));
   for (std::size_t i = 1; i < pairs.size(); ++i)
     for (int c : {1, 2}) n.pairs.insert(std::stoi(testing::splitCsv(pairs[i])[c]));
   mrpt_bridge::RawlogReader reader(dir.file("p.rawlog"));
   while (auto obj = reader.next())
     n.rawlog_times.insert(static_cast<int>(std::lround(
-        mrpt::Clock::toDouble(std::dynamic_pointer_cast<mrpt::obs::CObservationRobotPose>(obj)->timestamp) * 1000)));
+        mrpt::Clock::toDouble(
+            std::dynamic_pointer_cast<mrpt::obs::CObservationRobotPose>(obj)->timestamp) *
+        1000)));
   for (const auto& [id, pose] : mrpt_bridge::readGraphBinary(dir.file("g.graphbin")).nodes)
     n.graph_nodes.insert(static_cast<int>(id));
   for (const auto& e : std::filesystem::directory_iterator(dir.file("sigma"))) {

@@ -59,16 +59,19 @@ TEST(Paths, UnusableInputAmongUsableOnesIsOneFailure) {
            {dir.file("empty"), dir.file("empty") + ": directory holds no .npz snapshot", "empty"},
            {dir.file("nope.npz"), dir.file("nope.npz") + ": no such file or directory", "nope.npz"},
            {dir.file("a.txt"), dir.file("a.txt") + ": no such file or directory", "a.txt"},
-           {dir.file("fifo.npz"), dir.file("fifo.npz") + ": cannot open .npz archive: not a regular file", "fifo.npz"},
-           {dir.file("dir.npz"), dir.file("dir.npz") + ": directory holds no .npz snapshot", "dir.npz"},
+           {dir.file("fifo.npz"),
+            dir.file("fifo.npz") + ": cannot open .npz archive: not a regular file", "fifo.npz"},
+           {dir.file("dir.npz"), dir.file("dir.npz") + ": directory holds no .npz snapshot",
+            "dir.npz"},
        }) {
     SCOPED_TRACE(c.input);
-    const AppResult r = covariance({"-i", c.input, "-i", dir.file("a.npz"), "--csv", dir.file("k.csv"),
-                                    "--weight-scale", "4"});
+    const AppResult r = covariance({"-i", c.input, "-i", dir.file("a.npz"), "--csv",
+                                    dir.file("k.csv"), "--weight-scale", "4"});
     EXPECT_EQ(r.code, 1);
-    EXPECT_EQ(r.err, "dba-covariance: error: " + c.error +
-                         "\ndba-covariance: 2 snapshots read, 1 processed, 1 failed: 1 invalid input (" +
-                         c.name + ")\n");
+    EXPECT_EQ(r.err,
+              "dba-covariance: error: " + c.error +
+                  "\ndba-covariance: 2 snapshots read, 1 processed, 1 failed: 1 invalid input (" +
+                  c.name + ")\n");
     EXPECT_EQ(testing::splitLines(testing::readFile(dir.file("k.csv"))).size(), 1u + 6);
   }
 }
@@ -79,17 +82,20 @@ TEST(Paths, NoUsableInputStopsBeforeAnythingIsWritten) {
   std::ofstream(dir.file("k.csv")) << "previous";
   for (const auto& [input, error] : std::vector<std::pair<std::string, std::string>>{
            {dir.file("empty"), ": directory holds no .npz snapshot"},
-           {dir.file("k.csv"), ": not a snapshot input (expected a .npz file, a .rawlog of DBA "
-                               "snapshots, or a directory of .npz files)"}}) {
+           {dir.file("k.csv"),
+            ": not a snapshot input (expected a .npz file, a .rawlog of DBA "
+            "snapshots, or a directory of .npz files)"}}) {
     const AppResult r = covariance({"-i", input, "--csv", dir.file("k.csv")});
     EXPECT_EQ(r.code, 1);
     EXPECT_EQ(r.err, "dba-covariance: error: " + input + error + "\n");
     EXPECT_EQ(testing::readFile(dir.file("k.csv")), "previous");
   }
   // The real executable gives the same message and exit status.
-  const AppResult r = testing::runCommand(kBin + "dba-covariance -i " + dir.file("empty") + " --csv " + dir.file("k.csv"));
+  const AppResult r = testing::runCommand(kBin + "dba-covariance -i " + dir.file("empty") +
+                                          " --csv " + dir.file("k.csv"));
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.out, "dba-covariance: error: " + dir.file("empty") + ": directory holds no .npz snapshot\n");
+  EXPECT_EQ(r.out,
+            "dba-covariance: error: " + dir.file("empty") + ": directory holds no .npz snapshot\n");
   EXPECT_EQ(dir.entries(), (std::vector<std::string>{"empty", "k.csv"}));
 }
 
@@ -112,7 +118,8 @@ TEST(Paths, UnreadableInputs) {
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.out, "dba-covariance: error: " + dir.file("secret.npz") +
                        ": cannot open as a .npz (zip) archive: Can't open file: Permission denied\n"
-                       "dba-covariance: error: " + dir.file("locked") +
+                       "dba-covariance: error: " +
+                       dir.file("locked") +
                        ": cannot list .npz files: Permission denied\n"
                        "dba-covariance: 3 snapshots read, 1 processed, 2 failed: 2 invalid input "
                        "(secret.npz, locked)\n");
@@ -130,13 +137,24 @@ TEST(Paths, UnwritableOutputsStopBeforeAnyWork) {
     std::string error;
   };
   for (const Case& c : std::vector<Case>{
-           {{"--csv", "/proc/dbacov.csv"}, "/proc/dbacov.csv: cannot create a temporary file in directory '/proc': " + kNoFiles},
-           {{"--csv", dir.file("adir")}, dir.file("adir") + ": is a directory, expected a file path"},
-           {{"--csv", dir.file("file/k.csv")}, dir.file("file/k.csv") + ": cannot create a temporary file in directory '" + dir.file("file") + "': Not a directory"},
-           {{"-o", "/proc/p.rawlog"}, "/proc/p.rawlog: cannot create a temporary file in directory '/proc': " + kNoFiles},
-           {{"--graph", "/proc/g"}, "/proc/g.graphbin: cannot create a temporary file in directory '/proc': " + kNoFiles},
-           {{"--depth-sigma", dir.file("file")}, dir.file("file") + ": cannot use as the depth-sigma directory: " + dir.file("file") + " exists and is not a directory"},
-           {{"--depth-sigma", "/proc/sigma"}, "/proc/sigma: cannot use as the depth-sigma directory: cannot create files in '/proc': " + kNoFiles},
+           {{"--csv", "/proc/dbacov.csv"},
+            "/proc/dbacov.csv: cannot create a temporary file in directory '/proc': " + kNoFiles},
+           {{"--csv", dir.file("adir")},
+            dir.file("adir") + ": is a directory, expected a file path"},
+           {{"--csv", dir.file("file/k.csv")},
+            dir.file("file/k.csv") + ": cannot create a temporary file in directory '" +
+                dir.file("file") + "': Not a directory"},
+           {{"-o", "/proc/p.rawlog"},
+            "/proc/p.rawlog: cannot create a temporary file in directory '/proc': " + kNoFiles},
+           {{"--graph", "/proc/g"},
+            "/proc/g.graphbin: cannot create a temporary file in directory '/proc': " + kNoFiles},
+           {{"--depth-sigma", dir.file("file")},
+            dir.file("file") + ": cannot use as the depth-sigma directory: " + dir.file("file") +
+                " exists and is not a directory"},
+           {{"--depth-sigma", "/proc/sigma"},
+            "/proc/sigma: cannot use as the depth-sigma directory: cannot create files in "
+            "'/proc': " +
+                kNoFiles},
        }) {
     SCOPED_TRACE(c.output[1]);
     std::vector<std::string> args{"-i", dir.file("a.npz"), "--weight-scale", "4"};
@@ -147,9 +165,13 @@ TEST(Paths, UnwritableOutputsStopBeforeAnyWork) {
   }
   EXPECT_EQ(dir.entries(), (std::vector<std::string>{"a.npz", "adir", "file"}));
   // droid2rawlog, as the real executable.
-  const AppResult r = testing::runCommand(kBin + "droid2rawlog -i " + dir.file("a.npz") + " -o /proc/s.rawlog");
+  const AppResult r =
+      testing::runCommand(kBin + "droid2rawlog -i " + dir.file("a.npz") + " -o /proc/s.rawlog");
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.out, "droid2rawlog: error: /proc/s.rawlog: cannot create a temporary file in directory '/proc': " + kNoFiles + "\n");
+  EXPECT_EQ(
+      r.out,
+      "droid2rawlog: error: /proc/s.rawlog: cannot create a temporary file in directory '/proc': " +
+          kNoFiles + "\n");
 }
 
 TEST(Paths, UnwritableDirectory) {
@@ -161,7 +183,8 @@ TEST(Paths, UnwritableDirectory) {
   ::chmod(dir.file("a.npz").c_str(), 0644);
   fs::create_directory(dir.file("ro"));
   ::chmod(dir.file("ro").c_str(), 0555);
-  const AppResult r = testing::runCommand(exe + " -i " + dir.file("a.npz") + " --csv " + dir.file("ro/k.csv"));
+  const AppResult r =
+      testing::runCommand(exe + " -i " + dir.file("a.npz") + " --csv " + dir.file("ro/k.csv"));
   ::chmod(dir.file("ro").c_str(), 0755);
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.out, "dba-covariance: error: " + dir.file("ro/k.csv") +

@@ -25,7 +25,9 @@ namespace {
 
 using testing::gaugeOptions;
 
-sim::SyntheticSnapshotConfig tinyConfig(std::uint64_t seed) { return testing::gridConfig(seed, 5, 6, 8); }
+sim::SyntheticSnapshotConfig tinyConfig(std::uint64_t seed) {
+  return testing::gridConfig(seed, 5, 6, 8);
+}
 
 /// The synthetic snapshot with its graph poses and depths moved away from the optimum.
 Snapshot perturbed(std::uint64_t seed) {

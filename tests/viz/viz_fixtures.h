@@ -22,7 +22,8 @@ namespace dbacov::testing {
 /// Snapshot s of a DROID-like sliding window (like simul-dba): keyframes 0..s+window−1 in
 /// `poses`, edges among the last `window`; 8×10 grid, keyframe times at 20 Hz.
 inline Snapshot windowSnapshot(int s, int window = 5, std::uint64_t seed = 3) {
-  sim::SyntheticSnapshotConfig c = gridConfig(seed + static_cast<std::uint64_t>(s), s + window, 8, 10);
+  sim::SyntheticSnapshotConfig c =
+      gridConfig(seed + static_cast<std::uint64_t>(s), s + window, 8, 10);
   c.first_keyframe = s;
   c.id = s;
   Snapshot snap = sim::generateSyntheticSnapshot(c).snapshot;

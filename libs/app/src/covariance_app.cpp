@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli_common.h"
 #include "dbacov/app/outputs.h"
 #include "dbacov/app/pipeline.h"
 #include "dbacov/app/progress.h"
@@ -14,7 +15,6 @@
 #include "dbacov/core/parallel.h"
 #include "dbacov/mrpt/rawlog_io.h"
 #include "visual_cli.h"
-#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {
@@ -73,7 +73,8 @@ DbaOptions CovarianceAppOptions::engineOptions() const {
   }
   if (o.gauge.type == GaugeOptions::Type::Minimal) {
     if (gauge_sigma_rot || gauge_sigma_trans)
-      throw std::invalid_argument("--gauge-sigma-rot/--gauge-sigma-trans apply to --gauge two-pose only");
+      throw std::invalid_argument(
+          "--gauge-sigma-rot/--gauge-sigma-trans apply to --gauge two-pose only");
     o.gauge.sigma_rot = o.gauge.sigma_trans = 0;
   }
   if (gauge_sigma_rot) o.gauge.sigma_rot = *gauge_sigma_rot;
@@ -102,36 +103,59 @@ SolverOptions CovarianceAppOptions::solverOptions() const {
 
 int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
   CovarianceAppOptions opt;
-  CLI::App cli{"dba-covariance: marginal pose covariances from DROID-SLAM DBA snapshots", "dba-covariance"};
+  CLI::App cli{"dba-covariance: marginal pose covariances from DROID-SLAM DBA snapshots",
+               "dba-covariance"};
   detail::VisualCli visual;  // pictures: --scene, --snapshot, --plots (visual_cli.h)
   cli.footer(std::string(kConventions) + detail::kVisualHelp + kExitStatus);
-  cli.add_option("-i,--input", opt.inputs, "Snapshot .npz file or directory of them (name order); repeatable")
+  cli.add_option("-i,--input", opt.inputs,
+                 "Snapshot .npz file or directory of them (name order); repeatable")
       ->required();
-  cli.add_option("--csv", opt.csv_path, "Write one row per (snapshot, graph keyframe): pose, criteria, covariance");
-  cli.add_option("-o,--output", opt.rawlog_path, "Write a rawlog of CObservationRobotPose (CPose3DPDFGaussian) per emitted keyframe");
-  cli.add_option("--emit", opt.emit, "Keyframes in the rawlog: latest (newest of each snapshot), all, final (each once, from its last snapshot)")
+  cli.add_option("--csv", opt.csv_path,
+                 "Write one row per (snapshot, graph keyframe): pose, criteria, covariance");
+  cli.add_option(
+      "-o,--output", opt.rawlog_path,
+      "Write a rawlog of CObservationRobotPose (CPose3DPDFGaussian) per emitted keyframe");
+  cli.add_option("--emit", opt.emit,
+                 "Keyframes in the rawlog: latest (newest of each snapshot), all, final (each "
+                 "once, from its last snapshot)")
       ->check(CLI::IsMember({"latest", "all", "final"}));
   cli.add_option("--label", opt.label, "sensorLabel of the rawlog observations");
-  cli.add_option("--fps", opt.fps, "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
+  cli.add_option("--fps", opt.fps,
+                 "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
       ->check(CLI::PositiveNumber);
-  cli.add_option("--graph", opt.graph_prefix, "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
-  cli.add_option("--relative-csv", opt.relative_csv_path, "Write one row per (snapshot, keyframe pair): relative pose and covariance");
-  cli.add_option("--depth-sigma", opt.depth_sigma_dir, "Write per-pixel inverse-depth sigma maps (.npy) into this directory");
-  cli.add_option("--solver", opt.solver, "sparse (CHOLMOD, default) or dense (reference, small graphs)")
+  cli.add_option(
+      "--graph", opt.graph_prefix,
+      "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
+  cli.add_option("--relative-csv", opt.relative_csv_path,
+                 "Write one row per (snapshot, keyframe pair): relative pose and covariance");
+  cli.add_option("--depth-sigma", opt.depth_sigma_dir,
+                 "Write per-pixel inverse-depth sigma maps (.npy) into this directory");
+  cli.add_option("--solver", opt.solver,
+                 "sparse (CHOLMOD, default) or dense (reference, small graphs)")
       ->check(CLI::IsMember({"sparse", "dense"}));
-  cli.add_option("--ordering", opt.ordering, "Fill-reducing ordering of the sparse solver: auto, amd, metis, nesdis, natural")
+  cli.add_option("--ordering", opt.ordering,
+                 "Fill-reducing ordering of the sparse solver: auto, amd, metis, nesdis, natural")
       ->check(CLI::IsMember({"auto", "amd", "metis", "nesdis", "natural"}));
   cli.add_option("--preset", opt.preset, "Engine preset: droid (default) or paper")
       ->check(CLI::IsMember({"droid", "paper"}));
-  cli.add_option("--weight-scale", opt.weight_scale, "Information per unit confidence, px^-2 (droid 0.001, paper 0.1)");
-  cli.add_option("--gauge", opt.gauge, "two-pose (priors on the first two keyframes of ii) or minimal (first fixed + scale)")
+  cli.add_option("--weight-scale", opt.weight_scale,
+                 "Information per unit confidence, px^-2 (droid 0.001, paper 0.1)");
+  cli.add_option(
+         "--gauge", opt.gauge,
+         "two-pose (priors on the first two keyframes of ii) or minimal (first fixed + scale)")
       ->check(CLI::IsMember({"two-pose", "minimal"}));
-  cli.add_option("--gauge-sigma-rot", opt.gauge_sigma_rot, "two-pose prior sigma of rotation, rad (0 = hard fix)");
-  cli.add_option("--gauge-sigma-trans", opt.gauge_sigma_trans, "two-pose prior sigma of translation (0 = hard fix)");
-  cli.add_option("--near", opt.near, "Keep a pixel only if d < 1/near and its depth in frame j > near");
+  cli.add_option("--gauge-sigma-rot", opt.gauge_sigma_rot,
+                 "two-pose prior sigma of rotation, rad (0 = hard fix)");
+  cli.add_option("--gauge-sigma-trans", opt.gauge_sigma_trans,
+                 "two-pose prior sigma of translation (0 = hard fix)");
+  cli.add_option("--near", opt.near,
+                 "Keep a pixel only if d < 1/near and its depth in frame j > near");
   cli.add_option("--far", opt.far, "Keep a pixel only if d > 1/far");
-  cli.add_option("--min-depth-ratio", opt.min_depth_ratio, "Drop a pixel when z_j*d is below this (droid 0.25; 0 = off)");
-  cli.add_option("--threads", opt.threads, "Threads for independent snapshots and for each snapshot's linearization (0 = all cores)")
+  cli.add_option("--min-depth-ratio", opt.min_depth_ratio,
+                 "Drop a pixel when z_j*d is below this (droid 0.25; 0 = off)");
+  cli.add_option(
+         "--threads", opt.threads,
+         "Threads for independent snapshots and for each snapshot's linearization (0 = all cores)")
       ->check(CLI::Range(0, 4096));
   cli.add_flag("-q,--quiet", opt.quiet, "No progress display and no summary line");
   bool fail_fast = false;
@@ -145,8 +169,9 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
     detail::finishVisualOptions(visual);
     if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
         opt.rawlog_path.empty() && opt.graph_prefix.empty() && !visual.any())
-      throw std::invalid_argument("no output requested: give -o, --csv, --relative-csv, "
-                                  "--depth-sigma, --graph, --scene, --snapshot or --plots");
+      throw std::invalid_argument(
+          "no output requested: give -o, --csv, --relative-csv, "
+          "--depth-sigma, --graph, --scene, --snapshot or --plots");
   } catch (...) {
     return detail::usageExitStatus(cli, "dba-covariance", out, err);
   }
@@ -169,7 +194,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       sinks.push_back(std::move(g));
     }
     if (!opt.rawlog_path.empty())
-      sinks.push_back(std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.label, parseEmitMode(opt.emit)));
+      sinks.push_back(
+          std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.label, parseEmitMode(opt.emit)));
     detail::appendVisualSinks(sinks, visual);  // last: their commit renders (slowest)
     SolverOptions solver = opt.solverOptions();
     for (const auto& sink : sinks) solver.depth_variances |= sink->needsDepthVariances();
@@ -224,7 +250,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
               } catch (const std::exception& e) {
                 broken[i] = true;
                 added = false;
-                if (!report(classifyFailure(e, true), s.source, name(s) + ": " + e.what(), e.what()))
+                if (!report(classifyFailure(e, true), s.source, name(s) + ": " + e.what(),
+                            e.what()))
                   return false;
               }
             }
@@ -252,7 +279,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       }
       if (graph && graph->uninformativePairs() && !opt.quiet)
         err << "dba-covariance: note: " << graph->uninformativePairs()
-            << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative pose\n";
+            << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative "
+               "pose\n";
     }
   } catch (const std::exception& e) {
     err << "dba-covariance: error: " << e.what() << '\n';

@@ -5,12 +5,12 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli_common.h"
 #include "dbacov/app/run_summary.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/reprojection.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 #include "dbacov/mrpt/rawlog_io.h"
-#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {
@@ -19,9 +19,9 @@ namespace {
 void printSummary(std::ostream& out, const Snapshot& s) {
   const std::vector<int> kf = s.graphKeyframes();
   out << s.source << ": snapshot " << s.label() << ", " << s.numKeyframes() << " keyframes ("
-      << kf.size() << " in the graph: " << kf.front() << ".." << kf.back() << "), "
-      << s.numEdges() << " edges, " << s.H << "x" << s.W << ", fx=" << s.intrinsics[0]
-      << " fy=" << s.intrinsics[1] << " cx=" << s.intrinsics[2] << " cy=" << s.intrinsics[3];
+      << kf.size() << " in the graph: " << kf.front() << ".." << kf.back() << "), " << s.numEdges()
+      << " edges, " << s.H << "x" << s.W << ", fx=" << s.intrinsics[0] << " fy=" << s.intrinsics[1]
+      << " cx=" << s.intrinsics[2] << " cy=" << s.intrinsics[3];
   if (s.timestamps_s)
     out << ", t=" << std::fixed << std::setprecision(3) << (*s.timestamps_s)[kf.front()] << ".."
         << (*s.timestamps_s)[kf.back()] << " s" << std::defaultfloat;
@@ -52,9 +52,11 @@ reported and the others are still converted and written; with --fail-fast the fi
 the run and the output rawlog is not written at all (a previous file stays as it was). The last
 line on standard error sums up: "N snapshots read, P processed, F failed: K invalid input (...)".
 Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
-  auto* in_opt = cli.add_option("-i,--input", inputs, "Snapshot .npz, directory of them, or rawlog; repeatable");
+  auto* in_opt = cli.add_option("-i,--input", inputs,
+                                "Snapshot .npz, directory of them, or rawlog; repeatable");
   auto* out_opt = cli.add_option("-o,--output", output, "Output rawlog");
-  auto* info_opt = cli.add_option("--info", info, "Summarize snapshot files or rawlogs instead of converting");
+  auto* info_opt =
+      cli.add_option("--info", info, "Summarize snapshot files or rawlogs instead of converting");
   cli.add_option("--fps", fps, "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
       ->check(CLI::PositiveNumber);
   cli.add_option("--label", label, "sensorLabel of the snapshot observations");

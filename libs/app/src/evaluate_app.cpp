@@ -5,13 +5,13 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli_common.h"
 #include "dbacov/app/evaluation_inputs.h"
 #include "dbacov/app/evaluation_report.h"
 #include "dbacov/app/progress.h"
 #include "dbacov/app/scenario_options.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/monte_carlo.h"
-#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {

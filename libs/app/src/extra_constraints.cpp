@@ -40,7 +40,8 @@ struct LineParser {
   }
 
   /// Pose from 7 numbers and the information of the covariance in the remaining 2 or 21.
-  void poseAndInformation(const std::vector<double>& v, Eigen::Isometry3d* T, Matrix6d* info) const {
+  void poseAndInformation(const std::vector<double>& v, Eigen::Isometry3d* T,
+                          Matrix6d* info) const {
     if (v.size() != 7 + 2 && v.size() != 7 + 21)
       fail("expected a pose (7 numbers) and a covariance (2 sigmas or 21 entries), found " +
            std::to_string(v.size()) + " numbers");
@@ -49,7 +50,8 @@ struct LineParser {
     Matrix6d C = Matrix6d::Zero();
     if (v.size() == 9) {
       if (!(v[7] > 0 && v[8] > 0)) fail("sigmas must be > 0");
-      C.diagonal() << Eigen::Vector3d::Constant(v[7] * v[7]), Eigen::Vector3d::Constant(v[8] * v[8]);
+      C.diagonal() << Eigen::Vector3d::Constant(v[7] * v[7]),
+          Eigen::Vector3d::Constant(v[8] * v[8]);
     } else {
       int k = 7;
       for (int r = 0; r < 6; ++r)

@@ -32,7 +32,8 @@ std::string tail(const std::string& text, std::size_t n) {
 
 /// Runs gnuplot with `args`, stdout and stderr to `log_fd`, the descriptors `inherit` kept open
 /// under the same numbers; returns its exit status (127: not started).
-int spawnGnuplot(const std::vector<std::string>& args, int log_fd, const std::vector<int>& inherit) {
+int spawnGnuplot(const std::vector<std::string>& args, int log_fd,
+                 const std::vector<int>& inherit) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
@@ -60,15 +61,17 @@ int spawnGnuplot(const std::vector<std::string>& args, int log_fd, const std::ve
 MemFile::MemFile(const std::string& name) {
   fd_ = ::memfd_create(("dbacov_" + name).c_str(), MFD_CLOEXEC);
   if (fd_ < 0)
-    throw InputError("cannot create the in-memory file '" + name + "' for gnuplot: " +
-                     std::strerror(errno));
+    throw InputError("cannot create the in-memory file '" + name +
+                     "' for gnuplot: " + std::strerror(errno));
 }
 
 MemFile::~MemFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-std::string MemFile::path() const { return "/proc/self/fd/" + std::to_string(fd_); }
+std::string MemFile::path() const {
+  return "/proc/self/fd/" + std::to_string(fd_);
+}
 
 std::string MemFile::contents() const {
   std::string text;

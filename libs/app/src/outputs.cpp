@@ -32,7 +32,9 @@ CsvSink::CsvSink(const std::string& path, const std::string& header) : file_(pat
   append(header + '\n');
 }
 
-void CsvSink::commit() { file_.commit(); }
+void CsvSink::commit() {
+  file_.commit();
+}
 
 KeyframeCsvSink::KeyframeCsvSink(const std::string& path) : CsvSink(path, keyframeCsvHeader()) {}
 
@@ -95,7 +97,9 @@ void createOutputDirectory(const std::string& dir, const std::string& what) {
 
 DepthSigmaSink::DepthSigmaSink(const std::string& dir)
     : dir_(dir),
-      files_(std::make_unique<io::DeferredFiles>(checkOutputDirectory(dir, "depth-sigma directory"))) {}
+      files_(
+          std::make_unique<io::DeferredFiles>(checkOutputDirectory(dir, "depth-sigma directory"))) {
+}
 
 DepthSigmaSink::~DepthSigmaSink() = default;
 
@@ -119,7 +123,9 @@ EmitMode parseEmitMode(const std::string& name) {
 }
 
 PoseRawlogSink::PoseRawlogSink(const std::string& path, std::string label, EmitMode mode)
-    : writer_(std::make_unique<mrpt_bridge::RawlogWriter>(path)), label_(std::move(label)), mode_(mode) {}
+    : writer_(std::make_unique<mrpt_bridge::RawlogWriter>(path)),
+      label_(std::move(label)),
+      mode_(mode) {}
 
 PoseRawlogSink::~PoseRawlogSink() = default;
 
@@ -133,11 +139,14 @@ std::vector<std::pair<int, PoseRawlogSink::Record>> PoseRawlogSink::records(
   if (mode_ == EmitMode::Latest) kfs = {newestKeyframe(s)};
   std::vector<std::pair<int, Record>> out;
   for (int k : kfs)  // toPoseGaussian throws std::domain_error at pitch ±90°
-    out.emplace_back(k, Record{keyframeTime(s, k), mrpt_bridge::toPoseGaussian(cov.T_wc(k), cov.marginal(k))});
+    out.emplace_back(
+        k, Record{keyframeTime(s, k), mrpt_bridge::toPoseGaussian(cov.T_wc(k), cov.marginal(k))});
   return out;
 }
 
-void PoseRawlogSink::verify(const Snapshot& s, const DbaCovariance& cov) const { records(s, cov); }
+void PoseRawlogSink::verify(const Snapshot& s, const DbaCovariance& cov) const {
+  records(s, cov);
+}
 
 void PoseRawlogSink::add(const Snapshot& s, const DbaCovariance& cov) {
   // Every record is converted before the first is written: a keyframe that cannot be converted
@@ -173,7 +182,9 @@ GraphSink::GraphSink(std::string prefix) : prefix_(std::move(prefix)) {
   io::AtomicOutputFile probe(prefix_ + ".graphbin");  // discarded: only checks the directory
 }
 
-void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) { builder_.add(s, cov); }
+void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) {
+  builder_.add(s, cov);
+}
 
 void GraphSink::commit() {
   const PoseGraph g = builder_.graph();
@@ -184,7 +195,8 @@ void GraphSink::commit() {
     os << "node,tstamp,time_s\n";
     for (const auto& [id, T] : g.nodes) {
       os << id << ',' << formatDouble(g.node_tstamp.at(id)) << ',';
-      if (const auto t = g.node_time.find(id); t != g.node_time.end()) os << formatDouble(t->second);
+      if (const auto t = g.node_time.find(id); t != g.node_time.end())
+        os << formatDouble(t->second);
       os << '\n';
     }
   });

@@ -109,7 +109,8 @@ void covarianceFigure(detail::FigureBatch& batch, const SequenceHistory& h,
     << gnuplotQuote(fixed ? "log10 det Σ per keyframe (" + std::to_string(fixed) +
                                 " hard-fixed gauge keyframes, det Σ = 0, not shown)"
                           : "log10 det Σ per keyframe")
-    << "\nset xlabel " << gnuplotQuote(detail::timeLabel(times)) << "\n" << xrange(rows)
+    << "\nset xlabel " << gnuplotQuote(detail::timeLabel(times)) << "\n"
+    << xrange(rows)
     << (fixed == n ? "set yrange [0:1]\nset label 1 'no keyframe with a non-singular covariance' "
                      "at graph 0.5, graph 0.5 center\n"
                    : "")
@@ -173,18 +174,19 @@ void sigmaFigure(detail::FigureBatch& batch, const SequenceHistory& h, const std
     << "set output " << batch.output(path) << "\n"
     << "set multiplot layout 2,1 title " << gnuplotQuote(detail::sequenceTitle(h))
     << " font ',13'\n"
-    << "set grid\nset key outside right top\n" << xrange(rows)
-    << "set lmargin 12\nset rmargin 20\n"
+    << "set grid\nset key outside right top\n"
+    << xrange(rows) << "set lmargin 12\nset rmargin 20\n"
     << "set xlabel " << gnuplotQuote(detail::timeLabel(times)) << "\n"
-    << "set title " << gnuplotQuote("translation standard deviation (tangent ρ, camera axes)" + zeros)
-    << "\n"
+    << "set title "
+    << gnuplotQuote("translation standard deviation (tangent ρ, camera axes)" + zeros) << "\n"
     << "set ylabel 'σ [length unit]'\n"
     << scale(0) << "plot " << data
     << " using 1:2 with linespoints pt 7 lw 2 lc rgb '#d62728' title 'x (right)', "
     << "'' using 1:3 with linespoints pt 7 lw 2 lc rgb '#2ca02c' title 'y (down)', "
     << "'' using 1:4 with linespoints pt 7 lw 2 lc rgb '#1f77b4' title 'z (forward)'\n"
     << "set title "
-    << gnuplotQuote("rotation standard deviation (tangent φ, about the camera axes)" + zeros) << "\n"
+    << gnuplotQuote("rotation standard deviation (tangent φ, about the camera axes)" + zeros)
+    << "\n"
     << "set ylabel 'σ [deg]'\n"
     << scale(3) << "plot " << data
     << " using 1:5 with linespoints pt 7 lw 2 lc rgb '#d62728' title 'about x', "

@@ -4,10 +4,11 @@
 #include <fstream>
 #include <sstream>
 
-#include <CLI/CLI.hpp>
 #include <mrpt/graphslam/levmarq.h>
 #include <mrpt/obs/CObservationRobotPose.h>
+#include <CLI/CLI.hpp>
 
+#include "cli_common.h"
 #include "dbacov/app/csv_format.h"
 #include "dbacov/app/extra_constraints.h"
 #include "dbacov/io/atomic_file.h"
@@ -15,7 +16,6 @@
 #include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/pose_graph_io.h"
 #include "dbacov/mrpt/rawlog_io.h"
-#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {
@@ -32,17 +32,20 @@ PoseGraph loadGraph(const std::string& path) {
   else if (ext == ".graph")
     g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(path));
   else
-    throw std::invalid_argument(path + ": expected a .graphbin (exact) or .graph (MRPT text) file; "
+    throw std::invalid_argument(path +
+                                ": expected a .graphbin (exact) or .graph (MRPT text) file; "
                                 "MRPT's loader would misread the rotation information of a .g2o");
   if (g.nodes.empty()) throw InputError(path + ": the graph has no nodes");
   for (const auto& [id, T] : g.nodes)
     if (!T.matrix().allFinite())
       throw InputError(path + ": node " + std::to_string(id) + " has a non-finite pose");
   for (const PoseGraphEdge& e : g.edges) {
-    const std::string edge = path + ": edge " + std::to_string(e.from) + " -> " + std::to_string(e.to);
+    const std::string edge =
+        path + ": edge " + std::to_string(e.from) + " -> " + std::to_string(e.to);
     for (int node : {e.from, e.to})
       if (!g.nodes.count(node))
-        throw InputError(edge + " names node " + std::to_string(node) + ", which the graph does not have");
+        throw InputError(edge + " names node " + std::to_string(node) +
+                         ", which the graph does not have");
     if (!e.Z.matrix().allFinite()) throw InputError(edge + " has a non-finite relative pose");
     Matrix6d unused;
     const Matrix6d I = e.information;
@@ -73,7 +76,8 @@ void loadNodeTimes(const std::string& path, PoseGraph& g) {
       g.node_tstamp[node] = std::stod(tstamp);
       if (!time.empty()) g.node_time[node] = std::stod(time);
     } catch (const std::exception&) {
-      throw InputError(path + ":" + std::to_string(n) + ": expected 'node,tstamp,time_s', found '" + line + "'");
+      throw InputError(path + ":" + std::to_string(n) + ": expected 'node,tstamp,time_s', found '" +
+                       line + "'");
     }
   }
 }
@@ -93,7 +97,8 @@ int runPoseGraphApp(int argc, const char* const* argv, std::ostream& out, std::o
   std::string graph_path, nodes_path, extra_path, rawlog_path, tum_path, label = "DBA_POSEGRAPH";
   std::size_t max_iterations = 100;
   bool identity = false, quiet = false, no_refine = false;
-  CLI::App cli{"dba-posegraph: optimize a DROID-SLAM pose graph with MRPT and recover covariances", "dba-posegraph"};
+  CLI::App cli{"dba-posegraph: optimize a DROID-SLAM pose graph with MRPT and recover covariances",
+               "dba-posegraph"};
   cli.footer(R"(
 Loads GRAPH (.graphbin: MRPT binary CNetworkOfPoses3DInf, exact; .graph: MRPT text, whose 2.5.8
 loader drops rotation-rotation off-diagonal information), adds the constraints of --extra, runs
@@ -114,14 +119,18 @@ Extra constraints (one per line, '#' comments; covariances over the tangent [rho
 Node times come from PREFIX.nodes.csv beside the graph (written by dba-covariance --graph).
 Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
   cli.add_option("-g,--graph", graph_path, "Pose graph (.graphbin or .graph)")->required();
-  cli.add_option("--nodes", nodes_path, "Node times CSV (default: GRAPH with extension .nodes.csv, if present)");
+  cli.add_option("--nodes", nodes_path,
+                 "Node times CSV (default: GRAPH with extension .nodes.csv, if present)");
   cli.add_option("--extra", extra_path, "Extra constraints file (loop closures, absolute priors)");
-  cli.add_option("-o,--output", rawlog_path, "Write the optimized poses as a rawlog of CObservationRobotPose");
+  cli.add_option("-o,--output", rawlog_path,
+                 "Write the optimized poses as a rawlog of CObservationRobotPose");
   cli.add_option("--tum", tum_path, "Write the optimized trajectory as a TUM file");
   cli.add_option("--label", label, "sensorLabel of the rawlog observations");
-  cli.add_option("--max-iterations", max_iterations, "Levenberg-Marquardt iterations")->check(CLI::Range(1, 100000));
+  cli.add_option("--max-iterations", max_iterations, "Levenberg-Marquardt iterations")
+      ->check(CLI::Range(1, 100000));
   cli.add_flag("--identity-information", identity,
-               "Replace every information matrix by the identity (what MRPT's graph-slam app does in 3D), for comparison");
+               "Replace every information matrix by the identity (what MRPT's graph-slam app does "
+               "in 3D), for comparison");
   cli.add_flag("--no-refine", no_refine,
                "Keep MRPT's result as it is (no dbacov Levenberg-Marquardt refinement afterwards)");
   cli.add_flag("-q,--quiet", quiet, "No summary line");
@@ -155,7 +164,8 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
     std::set<int> fixed{g.nodes.begin()->first};
     if (!extra.absolute.empty()) {
       g.nodes[anchor] = Eigen::Isometry3d::Identity();
-      for (const AbsolutePrior& a : extra.absolute) g.edges.push_back({anchor, a.node, a.T_wc, a.information});
+      for (const AbsolutePrior& a : extra.absolute)
+        g.edges.push_back({anchor, a.node, a.T_wc, a.information});
       fixed = {anchor};
     }
     if (identity)
@@ -171,8 +181,9 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
     try {
       mrpt::graphslam::optimize_graph_spa_levmarq(net, info, nullptr, params);
     } catch (const std::exception& e) {
-      throw NumericalError(graph_path + ": MRPT's optimizer failed: " +
-                           mrpt_bridge::conciseMrptMessage(e.what()), {});
+      throw NumericalError(
+          graph_path + ": MRPT's optimizer failed: " + mrpt_bridge::conciseMrptMessage(e.what()),
+          {});
     }
     for (auto& [id, T] : g.nodes) T = mrpt_bridge::fromCPose3D(net.nodes.at(id));
     const auto [mrpt_cost, mrpt_gradient] = poseGraphCostAndGradient(g, fixed);

@@ -66,7 +66,8 @@ std::string RunSummary::line() const {
   for (const auto& [kind, g] : groups_) {
     s += sep + std::to_string(g.count) + " " + failureKindName(kind) + " (";
     for (std::size_t i = 0; i < g.examples.size(); ++i) s += (i ? ", " : "") + g.examples[i];
-    if (g.count > g.examples.size()) s += " and " + std::to_string(g.count - g.examples.size()) + " more";
+    if (g.count > g.examples.size())
+      s += " and " + std::to_string(g.count - g.examples.size()) + " more";
     s += ")";
     sep = ", ";
   }

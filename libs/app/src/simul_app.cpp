@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli_common.h"
 #include "dbacov/app/csv_format.h"
 #include "dbacov/app/progress.h"
 #include "dbacov/app/scenario_options.h"
@@ -15,7 +16,6 @@
 #include "dbacov/mrpt/rawlog_io.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/scenario_json.h"
-#include "cli_common.h"
 
 namespace dbacov::app {
 namespace {

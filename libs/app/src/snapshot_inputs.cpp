@@ -9,7 +9,9 @@
 namespace dbacov::app {
 namespace fs = std::filesystem;
 
-bool isRawlogPath(const std::string& path) { return fs::path(path).extension() == ".rawlog"; }
+bool isRawlogPath(const std::string& path) {
+  return fs::path(path).extension() == ".rawlog";
+}
 
 SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {
   bool usable = false;
@@ -18,7 +20,7 @@ SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {
     const fs::file_status st = fs::status(p, ec);
     std::string problem;
     if (ec && ec != std::errc::no_such_file_or_directory) {  // e.g. a directory on the way
-      problem = p + ": cannot access: " + ec.message();              // that may not be searched
+      problem = p + ": cannot access: " + ec.message();      // that may not be searched
     } else if (!fs::exists(st)) {
       problem = p + ": no such file or directory";
     } else if (fs::is_directory(st)) {
@@ -34,8 +36,9 @@ SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {
       entries_.push_back({p, ""});
       usable = true;
     } else {
-      problem = p + ": not a snapshot input (expected a .npz file, a .rawlog of DBA snapshots, or "
-                    "a directory of .npz files)";
+      problem = p +
+                ": not a snapshot input (expected a .npz file, a .rawlog of DBA snapshots, or "
+                "a directory of .npz files)";
     }
     if (!problem.empty()) entries_.push_back({p, problem});
   }

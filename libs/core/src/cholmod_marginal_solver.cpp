@@ -54,19 +54,23 @@ using DensePtr = std::unique_ptr<cholmod_dense, DenseDeleter>;
 
 int orderingCode(Ordering o) {
   switch (o) {
-    case Ordering::Amd: return CHOLMOD_AMD;
-    case Ordering::Metis: return CHOLMOD_METIS;
-    case Ordering::Nesdis: return CHOLMOD_NESDIS;
-    case Ordering::Natural: return CHOLMOD_NATURAL;
-    case Ordering::Auto: break;
+    case Ordering::Amd:
+      return CHOLMOD_AMD;
+    case Ordering::Metis:
+      return CHOLMOD_METIS;
+    case Ordering::Nesdis:
+      return CHOLMOD_NESDIS;
+    case Ordering::Natural:
+      return CHOLMOD_NATURAL;
+    case Ordering::Auto:
+      break;
   }
   return -1;
 }
 
 class CholmodMarginalSolver final : public MarginalSolver {
  public:
-  explicit CholmodMarginalSolver(Ordering ordering)
-      : L_(nullptr, FactorDeleter{common_.get()}) {
+  explicit CholmodMarginalSolver(Ordering ordering) : L_(nullptr, FactorDeleter{common_.get()}) {
     cholmod_common* c = common_.get();
     c->supernodal = CHOLMOD_SUPERNODAL;  // the block recursion needs the supernodal layout
     c->final_super = 1;
@@ -102,7 +106,8 @@ class CholmodMarginalSolver final : public MarginalSolver {
     A.packed = 1;
 
     L_.reset(cholmod_analyze(&A, c));
-    if (!L_) throw std::runtime_error("CHOLMOD analyze failed (status " + std::to_string(c->status) + ")");
+    if (!L_)
+      throw std::runtime_error("CHOLMOD analyze failed (status " + std::to_string(c->status) + ")");
     cholmod_factorize(&A, L_.get(), c);
     const int* perm = static_cast<const int*>(L_->Perm);
     if (c->status == CHOLMOD_NOT_POSDEF || L_->minor < L_->n) {
@@ -110,7 +115,8 @@ class CholmodMarginalSolver final : public MarginalSolver {
       throw FactorizationError("S is not positive definite", col);
     }
     if (c->status < CHOLMOD_OK || !L_->is_super)
-      throw std::runtime_error("CHOLMOD factorize failed (status " + std::to_string(c->status) + ")");
+      throw std::runtime_error("CHOLMOD factorize failed (status " + std::to_string(c->status) +
+                               ")");
 
     iperm_.assign(n_, 0);
     for (int k = 0; k < n_; ++k) iperm_[perm[k]] = k;
@@ -118,7 +124,8 @@ class CholmodMarginalSolver final : public MarginalSolver {
     // Relative pivots: L_kk² against the diagonal of the permuted S.
     for (int k = 0; k < n_; ++k) {
       const double l = diagonalOfL(k);
-      if (!(l * l > kMinRelativePivot * diag_[perm[k]])) throw FactorizationError("S is numerically singular", perm[k]);
+      if (!(l * l > kMinRelativePivot * diag_[perm[k]]))
+        throw FactorizationError("S is numerically singular", perm[k]);
     }
   }
 
@@ -198,8 +205,10 @@ class CholmodMarginalSolver final : public MarginalSolver {
       // must not see an empty right-hand side (it takes a reference to its first coefficient).
       if (m > 0) {
         // Y = L_RC L_CC⁻¹  (Yᵀ = L_CC⁻ᵀ L_RCᵀ)
-        const Eigen::MatrixXd Y = Lcc.triangularView<Eigen::Lower>().transpose().solve(
-                                         Ls.bottomRows(m).transpose()).transpose();
+        const Eigen::MatrixXd Y = Lcc.triangularView<Eigen::Lower>()
+                                      .transpose()
+                                      .solve(Ls.bottomRows(m).transpose())
+                                      .transpose();
         const Eigen::MatrixXd ZRR = gatherZ(rows + w, m, pos);
         Zs.bottomRows(m).noalias() = -ZRR * Y;
         Zcc.noalias() -= Zs.bottomRows(m).transpose() * Y;

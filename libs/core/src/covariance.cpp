@@ -54,8 +54,9 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
         const int ka = m.ne.keyframes[a], kb = m.ne.keyframes[b];
         throw NumericalError(
             "the information matrix has non-finite entries " +
-                (a == b ? "at keyframe " + std::to_string(ka)
-                        : "between keyframes " + std::to_string(ka) + " and " + std::to_string(kb)) +
+                (a == b
+                     ? "at keyframe " + std::to_string(ka)
+                     : "between keyframes " + std::to_string(ka) + " and " + std::to_string(kb)) +
                 ": the snapshot's values overflow double precision in the DBA factor (intrinsics, "
                 "poses or inverse depths far out of range)",
             a == b ? std::vector<int>{ka} : std::vector<int>{ka, kb});
@@ -88,8 +89,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
     }
     throw NumericalError(
         "the reduced information matrix S is not positive definite" +
-            (kf.empty() ? std::string()
-                        : " (breakdown at keyframe " + joinKeyframes(kf) + ")") +
+            (kf.empty() ? std::string() : " (breakdown at keyframe " + joinKeyframes(kf) + ")") +
             ": some motion is unobservable (degenerate geometry, too few weighted pixels, or "
             "a gauge that does not fix every DoF)",
         kf);
@@ -109,7 +109,9 @@ DbaCovariance::~DbaCovariance() = default;
 DbaCovariance::DbaCovariance(DbaCovariance&&) noexcept = default;
 DbaCovariance& DbaCovariance::operator=(DbaCovariance&&) noexcept = default;
 
-const std::vector<int>& DbaCovariance::keyframes() const { return impl_->ne.keyframes; }
+const std::vector<int>& DbaCovariance::keyframes() const {
+  return impl_->ne.keyframes;
+}
 
 bool DbaCovariance::contains(int k) const {
   return k >= 0 && k < static_cast<int>(impl_->ne.slot_of.size()) && impl_->ne.slot_of[k] >= 0;
@@ -121,7 +123,9 @@ std::vector<int> DbaCovariance::gaugeKeyframes() const {
   return kf;
 }
 
-int DbaCovariance::freeDof(int k) const { return impl_->gauge.dimOf(impl_->slot(k)); }
+int DbaCovariance::freeDof(int k) const {
+  return impl_->gauge.dimOf(impl_->slot(k));
+}
 
 Matrix6d DbaCovariance::marginal(int k) const {
   const int s = impl_->slot(k);
@@ -176,8 +180,8 @@ std::vector<float> DbaCovariance::inverseDepthSigma(int k) const {
   }
   // The touched slots form a clique of S, so this block lies on the factor's pattern. (None of
   // them may be free: then the poses are fixed and var(d) = 1/h.)
-  const Eigen::MatrixXd Q =
-      idx.empty() ? Eigen::MatrixXd::Zero(0, P) : Eigen::MatrixXd(m.solver->covariance(idx, idx) * beta);
+  const Eigen::MatrixXd Q = idx.empty() ? Eigen::MatrixXd::Zero(0, P)
+                                        : Eigen::MatrixXd(m.solver->covariance(idx, idx) * beta);
   for (int c = 0; c < P; ++c) {
     const double h = dt.h[c];
     const double var = 1.0 / h + beta.col(c).dot(Q.col(c)) / (h * h);
@@ -191,6 +195,8 @@ const Eigen::Isometry3d& DbaCovariance::T_wc(int k) const {
   return impl_->T_wc[k];
 }
 
-const LinearizationStats& DbaCovariance::stats() const { return impl_->ne.stats; }
+const LinearizationStats& DbaCovariance::stats() const {
+  return impl_->ne.stats;
+}
 
 }  // namespace dbacov

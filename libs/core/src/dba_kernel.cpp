@@ -122,7 +122,8 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
       const double ee = -cam.fy * iz, f = cam.fy * Y1 * iz * iz;
       // mR_c = m_c R_ji
       const double r00 = a * R[0] + c * R[6], r01 = a * R[1] + c * R[7], r02 = a * R[2] + c * R[8];
-      const double r10 = ee * R[3] + f * R[6], r11 = ee * R[4] + f * R[7], r12 = ee * R[5] + f * R[8];
+      const double r10 = ee * R[3] + f * R[6], r11 = ee * R[4] + f * R[7],
+                   r12 = ee * R[5] + f * R[8];
       const double res0 = e.tx[p0 + p] - (cam.fx * Y0 * iz + cam.cx);
       const double res1 = e.ty[p0 + p] - (cam.fy * Y1 * iz + cam.cy);
       // J_i = [d·mR, p × mR],  J_j = [−d·m, m × Y],  J_d = m·t  (p = [x y 1])
@@ -228,9 +229,9 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
 // GCC's target_clones: clang 14 ignores it on a function declared earlier, and where it clones,
 // it defines no symbol that other files can call.)
 __attribute__((target("avx2,fma"))) void chunkAvx2Fma(const Camera& cam, const Filter& flt, int p0,
-                                                       int n, const double* xn, const double* yn,
-                                                       const double* d, const Edge* edges,
-                                                       Accumulator& acc) {
+                                                      int n, const double* xn, const double* yn,
+                                                      const double* d, const Edge* edges,
+                                                      Accumulator& acc) {
   chunkBody(cam, flt, p0, n, xn, yn, d, edges, acc);
 }
 void chunkBaseline(const Camera& cam, const Filter& flt, int p0, int n, const double* xn,

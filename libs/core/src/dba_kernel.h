@@ -15,8 +15,8 @@
 
 namespace dbacov::kernel {
 
-constexpr int kChunk = 64;   ///< pixels per chunk (lanes)
-constexpr int kRow = 14;     ///< whitened row: J_i (6), J_j (6), r (1), J_d (1)
+constexpr int kChunk = 64;  ///< pixels per chunk (lanes)
+constexpr int kRow = 14;    ///< whitened row: J_i (6), J_j (6), r (1), J_d (1)
 
 struct Camera {
   double fx, fy, cx, cy;
@@ -40,15 +40,15 @@ struct Edge {
 
 /// Everything one source keyframe accumulates; sized by reset().
 struct Accumulator {
-  int T = 0, E = 0;               ///< touched slots, edges
-  std::vector<double> aug;        ///< E × 13 × 13 per edge, Σ aᵀa of a = √w·[J_i J_j r] (lower)
-  std::vector<double> W;          ///< 6T × 6T, Σ_k b_k b_kᵀ / h_k (lower triangle, row-major)
-  std::vector<double> gS;         ///< 6T, Σ_k b_k g_k / h_k
+  int T = 0, E = 0;         ///< touched slots, edges
+  std::vector<double> aug;  ///< E × 13 × 13 per edge, Σ aᵀa of a = √w·[J_i J_j r] (lower)
+  std::vector<double> W;    ///< 6T × 6T, Σ_k b_k b_kᵀ / h_k (lower triangle, row-major)
+  std::vector<double> gS;   ///< 6T, Σ_k b_k g_k / h_k
   std::size_t factors_used = 0, factors_filtered = 0, depths_used = 0, depths_unobservable = 0;
   // Depth terms of the kept depths, when requested (keep_depth_terms).
   bool keep_depths = false;
   std::vector<int> pixel;
-  std::vector<double> h, g, B;    ///< B: 6T values per kept depth, appended
+  std::vector<double> h, g, B;  ///< B: 6T values per kept depth, appended
   // Scratch reused by every chunk.
   std::vector<double> rows, b, hv, gv;
 

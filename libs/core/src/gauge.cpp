@@ -114,11 +114,12 @@ void checkGaugeReachesAll(const BlockSymmetricMatrix& S, const GaugeParameteriza
   std::vector<int> part;
   for (int a : unreached)
     if (root(a) == r0) part.push_back(keyframes[a]);
-  throw NumericalError("no gauge reaches keyframes " + joinKeyframes(part) +
-                           ": they share no information with gauge keyframes " +
-                           joinKeyframes({keyframes[g.gauge_slots[0]], keyframes[g.gauge_slots[1]]}) +
-                           " (disconnected part of the graph)",
-                       part);
+  throw NumericalError(
+      "no gauge reaches keyframes " + joinKeyframes(part) +
+          ": they share no information with gauge keyframes " +
+          joinKeyframes({keyframes[g.gauge_slots[0]], keyframes[g.gauge_slots[1]]}) +
+          " (disconnected part of the graph)",
+      part);
 }
 
 }  // namespace dbacov

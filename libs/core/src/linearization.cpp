@@ -2,9 +2,9 @@
 
 #include <algorithm>
 
+#include "dba_kernel.h"
 #include "dbacov/core/dba_factor.h"
 #include "dbacov/core/parallel.h"
-#include "dba_kernel.h"
 
 namespace dbacov {
 namespace {
@@ -84,8 +84,9 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
     res.stats.chi2 += A(12, 12);
   }
   // S = H − Σ b b ᵀ/h and g_S = g − Σ b g/h over the eliminated depths.
-  Eigen::MatrixXd W = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
-                                                      Eigen::RowMajor>>(acc.W.data(), 6 * T, 6 * T);
+  Eigen::MatrixXd W =
+      Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+          acc.W.data(), 6 * T, 6 * T);
   W.triangularView<Eigen::StrictlyUpper>() = W.transpose();
   res.Sloc = res.Hloc - W;
   res.gS_loc = res.g_loc - Eigen::Map<const Eigen::VectorXd>(acc.gS.data(), 6 * T);

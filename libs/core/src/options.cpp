@@ -5,7 +5,9 @@
 
 namespace dbacov {
 
-DbaOptions DbaOptions::droid() { return DbaOptions{}; }
+DbaOptions DbaOptions::droid() {
+  return DbaOptions{};
+}
 
 DbaOptions DbaOptions::paper() {
   DbaOptions o;
@@ -27,8 +29,7 @@ DbaOptions DbaOptions::preset(const std::string& name) {
 
 void DbaOptions::validate() const {
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
-  if (!positive(weight_scale))
-    throw std::invalid_argument("weight scale must be finite and > 0");
+  if (!positive(weight_scale)) throw std::invalid_argument("weight scale must be finite and > 0");
   if (min_depth_ratio && !(std::isfinite(*min_depth_ratio) && *min_depth_ratio >= 0))
     throw std::invalid_argument("minimum depth ratio must be finite and >= 0");
   if (near && !positive(*near)) throw std::invalid_argument("near must be finite and > 0");

@@ -13,7 +13,8 @@ bool informationOf(const Matrix6d& Sigma, Matrix6d* information) {
   const Eigen::SelfAdjointEigenSolver<Matrix6d> es(0.5 * (Sigma + Sigma.transpose()));
   const Vector6d lambda = es.eigenvalues();
   if (!(lambda.minCoeff() > 1e-12 * lambda.maxCoeff()) || !(lambda.minCoeff() > 0)) return false;
-  const Matrix6d I = es.eigenvectors() * lambda.cwiseInverse().asDiagonal() * es.eigenvectors().transpose();
+  const Matrix6d I =
+      es.eigenvectors() * lambda.cwiseInverse().asDiagonal() * es.eigenvectors().transpose();
   *information = 0.5 * (I + I.transpose());  // exactly symmetric: serializers keep one triangle
   return true;
 }
@@ -41,7 +42,9 @@ PoseGraph PoseGraphBuilder::graph() const {
   return g;
 }
 
-std::size_t PoseGraphBuilder::numUninformativePairs() const { return seen_.size() - edges_.size(); }
+std::size_t PoseGraphBuilder::numUninformativePairs() const {
+  return seen_.size() - edges_.size();
+}
 
 void poseGraphEdgeResidual(const Eigen::Isometry3d& T_from, const Eigen::Isometry3d& T_to,
                            const Eigen::Isometry3d& Z, Vector6d* r, Matrix6d* J_from,
@@ -218,17 +221,17 @@ std::map<int, Matrix6d> poseGraphCovariances(const PoseGraph& g, const std::set<
                          floating);
 
   const PoseGraphSystem sys = assemble(g, fixed);
-  std::unique_ptr<MarginalSolver> solver = solver_kind == SolverKind::Sparse
-                                               ? makeCholmodMarginalSolver()
-                                               : makeDenseMarginalSolver();
+  std::unique_ptr<MarginalSolver> solver =
+      solver_kind == SolverKind::Sparse ? makeCholmodMarginalSolver() : makeDenseMarginalSolver();
   try {
     solver->factorize(sys.H.toSparseUpper());
   } catch (const FactorizationError& e) {
     std::vector<int> bad;
     if (e.column() >= 0) bad.push_back(sys.ids[e.column() / 6]);
-    throw NumericalError("the pose-graph information matrix is not positive definite" +
-                             (bad.empty() ? std::string() : " (at node " + joinKeyframes(bad) + ")"),
-                         bad);
+    throw NumericalError(
+        "the pose-graph information matrix is not positive definite" +
+            (bad.empty() ? std::string() : " (at node " + joinKeyframes(bad) + ")"),
+        bad);
   }
   std::map<int, Matrix6d> out;
   for (int id : fixed)

@@ -32,9 +32,13 @@ long long firstNonFinite(const T* v, std::size_t n) {
 
 }  // namespace
 
-Eigen::Isometry3d Snapshot::T_cw(int k) const { return poseFromTQ(poses_cw.row(k).data()); }
+Eigen::Isometry3d Snapshot::T_cw(int k) const {
+  return poseFromTQ(poses_cw.row(k).data());
+}
 
-Eigen::Isometry3d Snapshot::T_wc(int k) const { return T_cw(k).inverse(); }
+Eigen::Isometry3d Snapshot::T_wc(int k) const {
+  return T_cw(k).inverse();
+}
 
 void Snapshot::setT_wc(int k, const Eigen::Isometry3d& T) {
   poses_cw.row(k) = poseToTQ(T.inverse()).transpose();
@@ -55,7 +59,8 @@ std::vector<int> Snapshot::graphKeyframes() const {
 std::vector<std::pair<int, int>> Snapshot::relativePairs() const {
   std::vector<std::pair<int, int>> pairs;
   for (std::size_t e = 0; e < ii.size(); ++e)
-    pairs.emplace_back(static_cast<int>(std::min(ii[e], jj[e])), static_cast<int>(std::max(ii[e], jj[e])));
+    pairs.emplace_back(static_cast<int>(std::min(ii[e], jj[e])),
+                       static_cast<int>(std::max(ii[e], jj[e])));
   const std::vector<int> kf = graphKeyframes();
   for (std::size_t a = 0; a + 1 < kf.size(); ++a) pairs.emplace_back(kf[a], kf[a + 1]);
   std::sort(pairs.begin(), pairs.end());
@@ -74,8 +79,9 @@ void Snapshot::validate() const {
     fail(*this, "keys 'ii' and 'jj' differ in length (" + std::to_string(E) + " vs " +
                     std::to_string(jj.size()) + ")");
   if (E == 0) fail(*this, "keys 'ii'/'jj' are empty: the snapshot has no edges");
-  for (const auto& [key, arr] : {std::pair<const char*, const std::vector<float>*>{"target", &target},
-                                 {"weight", &weight}}) {
+  for (const auto& [key, arr] :
+       {std::pair<const char*, const std::vector<float>*>{"target", &target},
+        {"weight", &weight}}) {
     if (arr->size() != E * 2 * HW)
       fail(*this, std::string("key '") + key + "' has " + std::to_string(arr->size()) +
                       " values, expected " + shapeStr({E, 2, std::size_t(H), std::size_t(W)}) +
@@ -91,8 +97,9 @@ void Snapshot::validate() const {
   for (std::size_t e = 0; e < E; ++e) {
     for (const auto& [key, v] : {std::pair<const char*, std::int64_t>{"ii", ii[e]}, {"jj", jj[e]}})
       if (v < 0 || v >= static_cast<std::int64_t>(N))
-        fail(*this, std::string("key '") + key + "' edge " + std::to_string(e) + " names keyframe " +
-                        std::to_string(v) + ", expected 0.." + std::to_string(N - 1));
+        fail(*this, std::string("key '") + key + "' edge " + std::to_string(e) +
+                        " names keyframe " + std::to_string(v) + ", expected 0.." +
+                        std::to_string(N - 1));
     if (ii[e] == jj[e])
       fail(*this, "edge " + std::to_string(e) + " links keyframe " + std::to_string(ii[e]) +
                       " to itself (ii == jj)");
@@ -137,10 +144,12 @@ void Snapshot::validate() const {
     any_weight |= weight[i] > 0;
   }
   if (!any_weight)
-    fail(*this, "key 'weight' is zero at every pixel of every edge: the snapshot carries no "
-                "information, expected some confidences > 0");
-  for (const auto& [key, times] : {std::pair<const char*, const std::vector<double>*>{"tstamp", &tstamp},
-                                   {"timestamps_s", timestamps_s ? &*timestamps_s : nullptr}})
+    fail(*this,
+         "key 'weight' is zero at every pixel of every edge: the snapshot carries no "
+         "information, expected some confidences > 0");
+  for (const auto& [key, times] :
+       {std::pair<const char*, const std::vector<double>*>{"tstamp", &tstamp},
+        {"timestamps_s", timestamps_s ? &*timestamps_s : nullptr}})
     if (long long k = times ? firstNonFinite(times->data(), times->size()) : -1; k >= 0)
       fail(*this, std::string("key '") + key + "' keyframe " + std::to_string(k) +
                       " has the non-finite value " + std::to_string((*times)[k]) +
@@ -149,12 +158,15 @@ void Snapshot::validate() const {
 
 double keyframeTime(const Snapshot& s, int k) {
   if (!s.timestamps_s)
-    throw InputError("no keyframe times (key 'timestamps_s'): give --fps to derive them from "
-                     "'tstamp'");
+    throw InputError(
+        "no keyframe times (key 'timestamps_s'): give --fps to derive them from "
+        "'tstamp'");
   return (*s.timestamps_s)[k];
 }
 
-int newestKeyframe(const Snapshot& s) { return s.graphKeyframes().back(); }
+int newestKeyframe(const Snapshot& s) {
+  return s.graphKeyframes().back();
+}
 
 void deriveKeyframeTimes(Snapshot& s, double fps) {
   if (s.timestamps_s) return;

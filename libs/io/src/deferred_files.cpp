@@ -12,7 +12,8 @@
 
 namespace dbacov::io {
 
-DeferredFiles::DeferredFiles(const std::string& spool_dir) : dir_(spool_dir.empty() ? "." : spool_dir) {
+DeferredFiles::DeferredFiles(const std::string& spool_dir)
+    : dir_(spool_dir.empty() ? "." : spool_dir) {
   fd_ = openScratchFile(dir_);
   if (fd_ < 0)
     throw InputError(dir_ + ": cannot create a temporary spool file: " + std::strerror(errno));
@@ -27,8 +28,9 @@ void DeferredFiles::add(const std::string& path, const void* data, std::size_t s
   const char* p = static_cast<const char*>(data);
   const Extent extent{end_, size};
   for (std::size_t done = 0; done < size;) {
-    const ssize_t n = ::pwrite(fd_, p + done, std::min<std::size_t>(size - done, std::size_t{1} << 30),
-                               static_cast<off_t>(end_ + done));
+    const ssize_t n =
+        ::pwrite(fd_, p + done, std::min<std::size_t>(size - done, std::size_t{1} << 30),
+                 static_cast<off_t>(end_ + done));
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
       const int error = n < 0 ? errno : EIO;

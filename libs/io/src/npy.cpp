@@ -159,8 +159,8 @@ NpyArray readNpyStream(std::uint64_t available, const ByteReader& read,
       const std::size_t r = read(dst + got, n - got);
       if (r == 0)
         throw InputError(context + ": truncated .npy " + what + " (" +
-                         std::to_string(before + got) + " of " +
-                         std::to_string(total ? total : n) + " bytes)");
+                         std::to_string(before + got) + " of " + std::to_string(total ? total : n) +
+                         " bytes)");
       got += r;
     }
   };

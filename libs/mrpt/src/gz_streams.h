@@ -1,10 +1,10 @@
 // Private to dbacov_mrpt: MRPT streams over zlib's gzread / gzwrite, for rawlogs.
 //
-// GzInputStream: mrpt::io::CFileGZInputStream asks the file system for the file's size when it opens it, which
-// throws for a FIFO or /dev/stdin; this stream reads any readable path (gz-compressed or plain,
-// zlib detects which) and never seeks. Read() returns the bytes read, 0 at the end of the data,
-// and (size_t)-1 on a read error (damaged compressed data, or compressed data that ends before
-// its end marker: a truncated file), as CFileGZInputStream does for damaged data.
+// GzInputStream: mrpt::io::CFileGZInputStream asks the file system for the file's size when it
+// opens it, which throws for a FIFO or /dev/stdin; this stream reads any readable path
+// (gz-compressed or plain, zlib detects which) and never seeks. Read() returns the bytes read, 0 at
+// the end of the data, and (size_t)-1 on a read error (damaged compressed data, or compressed data
+// that ends before its end marker: a truncated file), as CFileGZInputStream does for damaged data.
 //
 // GzOutputStream: mrpt::io::CFileGZOutputStream::close() ignores what gzclose() returns, so a
 // failure to write the last compressed block and the trailer (disk full, quota) goes unnoticed and
@@ -28,7 +28,7 @@ class GzFileStream : public mrpt::io::CStream {
   GzFileStream& operator=(const GzFileStream&) = delete;
 
   uint64_t Seek(int64_t offset, TSeekOrigin origin) override;  ///< throws std::logic_error
-  uint64_t getTotalBytesCount() const override { return 0; }  ///< unknown (may be a pipe)
+  uint64_t getTotalBytesCount() const override { return 0; }   ///< unknown (may be a pipe)
   uint64_t getPosition() const override;
   std::string getStreamDescription() const override { return "rawlog " + name_; }
 

@@ -43,8 +43,9 @@ std::optional<ObjectHeader> peekObjectHeader(PeekStream& in) {
   }
   const unsigned char first = in.peeked()[0];
   if (!(first & 0x80))
-    throw InputError("not an object in MRPT's serialization format (a rawlog written by MRPT >= "
-                     "0.5.5 is expected)");
+    throw InputError(
+        "not an object in MRPT's serialization format (a rawlog written by MRPT >= "
+        "0.5.5 is expected)");
   const std::size_t length = first & 0x7F;
   if (length > 120)
     throw InputError("the object's class name has " + std::to_string(length) +
@@ -71,7 +72,8 @@ std::uint32_t readFrameStart(PeekStream& in, const ObjectHeader& h) {
   unsigned char fields[16];
   if (!in.readExact(fields, before + 4)) throw InputError("CSensoryFrame truncated");
   std::uint32_t count = 0;
-  for (std::size_t i = 0; i < 4; ++i) count |= static_cast<std::uint32_t>(fields[before + i]) << (8 * i);
+  for (std::size_t i = 0; i < 4; ++i)
+    count |= static_cast<std::uint32_t>(fields[before + i]) << (8 * i);
   if (count > kMaxFrameObservations)
     throw InputError("CSensoryFrame declares " + std::to_string(count) +
                      " observations, more than the " + std::to_string(kMaxFrameObservations) +
@@ -82,7 +84,8 @@ std::uint32_t readFrameStart(PeekStream& in, const ObjectHeader& h) {
 void readEndFlag(PeekStream& in, const ObjectHeader& h) {
   unsigned char flag = 0;
   if (!in.readExact(&flag, 1) || flag != 0x88)
-    throw InputError("the " + printable(h.class_name) + " object does not end with MRPT's end flag (damaged)");
+    throw InputError("the " + printable(h.class_name) +
+                     " object does not end with MRPT's end flag (damaged)");
 }
 
 }  // namespace dbacov::mrpt_bridge

@@ -56,7 +56,7 @@ struct ObjectHeader {
   std::string class_name;  ///< as MRPT reads it (up to the first NUL)
   std::string short_name;  ///< without namespace: what MRPT looks the class up by
   int version = 0;
-  std::size_t bytes = 0;   ///< length of the header (length byte, name, version)
+  std::size_t bytes = 0;  ///< length of the header (length byte, name, version)
 };
 
 /// The header of the next object, left in the stream (peeked); std::nullopt at the end of the

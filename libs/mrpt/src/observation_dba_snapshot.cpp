@@ -72,7 +72,9 @@ std::string readLabel(mrpt::serialization::CArchive& in) {
 
 }  // namespace
 
-uint8_t CObservationDbaSnapshot::serializeGetVersion() const { return 0; }
+uint8_t CObservationDbaSnapshot::serializeGetVersion() const {
+  return 0;
+}
 
 void CObservationDbaSnapshot::serializeTo(mrpt::serialization::CArchive& out) const {
   const Snapshot& s = snapshot;
@@ -107,13 +109,14 @@ void CObservationDbaSnapshot::serializeFrom(mrpt::serialization::CArchive& in, u
   // Refuse before allocating: every size below is bounded by this total.
   // (in floating point: the exact product of hostile sizes may overflow 64 bits)
   const std::uint64_t hw = std::uint64_t(H) * std::uint64_t(W);
-  const double bytes = double(N) * (7 * 8 + 4 * double(hw) + 16) + double(E) * (16 + 16 * double(hw));
+  const double bytes =
+      double(N) * (7 * 8 + 4 * double(hw) + 16) + double(E) * (16 + 16 * double(hw));
   if (bytes > double(kMaxSnapshotBytes)) {
     char size[32];
     std::snprintf(size, sizeof size, "%.4g", bytes);
-    throw InputError("snapshot record declares N=" + std::to_string(N) + ", H=" +
-                     std::to_string(H) + ", W=" + std::to_string(W) + ", E=" + std::to_string(E) +
-                     " (" + size + " bytes), more than the limit of " +
+    throw InputError("snapshot record declares N=" + std::to_string(N) +
+                     ", H=" + std::to_string(H) + ", W=" + std::to_string(W) +
+                     ", E=" + std::to_string(E) + " (" + size + " bytes), more than the limit of " +
                      std::to_string(kMaxSnapshotBytes) + " bytes");
   }
   s.H = H;
@@ -156,7 +159,9 @@ void CObservationDbaSnapshot::getDescriptionAsText(std::ostream& o) const {
     << (s.timestamps_s ? ", with keyframe times" : ", without keyframe times") << "\n";
 }
 
-void registerDbacovMrptClasses() { mrpt::rtti::registerClass(CLASS_ID(CObservationDbaSnapshot)); }
+void registerDbacovMrptClasses() {
+  mrpt::rtti::registerClass(CLASS_ID(CObservationDbaSnapshot));
+}
 
 namespace {
 // Registers the class when the library is loaded (also by dlopen, as MRPT's `-p` plugin option

@@ -30,7 +30,8 @@ Matrix6d tangentToYprJacobian(const Eigen::Isometry3d& T_wc) {
   const double pitch = p.pitch(), roll = p.roll();
   const double cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
   if (std::abs(cp) < 1e-9)
-    throw std::domain_error("pose at pitch ±90° (gimbal lock): yaw/pitch/roll covariance undefined");
+    throw std::domain_error(
+        "pose at pitch ±90° (gimbal lock): yaw/pitch/roll covariance undefined");
   const double tp = std::tan(pitch);
   Eigen::Matrix3d Einv;
   Einv << 0, sr / cp, cr / cp, 0, cr, -sr, 1, sr * tp, cr * tp;

@@ -8,18 +8,16 @@
 #include <mrpt/serialization/CArchive.h>
 
 #include "dbacov/io/atomic_file.h"
-#include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/mrpt_errors.h"
+#include "dbacov/mrpt/pose_conversion.h"
 
 namespace dbacov::mrpt_bridge {
 namespace {
 
 /// The matrix slots that MRPT 2.5.8's EDGE_SE3:QUAT loader fills, in file order.
-constexpr std::array<std::pair<int, int>, 21> kMrptSlots{{{0, 0}, {0, 1}, {0, 2}, {0, 5}, {0, 4},
-                                                          {0, 3}, {1, 1}, {1, 2}, {1, 5}, {1, 4},
-                                                          {1, 3}, {2, 2}, {2, 5}, {2, 4}, {2, 3},
-                                                          {5, 5}, {5, 4}, {5, 3}, {4, 4}, {4, 3},
-                                                          {3, 3}}};
+constexpr std::array<std::pair<int, int>, 21> kMrptSlots{
+    {{0, 0}, {0, 1}, {0, 2}, {0, 5}, {0, 4}, {0, 3}, {1, 1}, {1, 2}, {1, 5}, {1, 4}, {1, 3},
+     {2, 2}, {2, 5}, {2, 4}, {2, 3}, {5, 5}, {5, 4}, {5, 3}, {4, 4}, {4, 3}, {3, 3}}};
 
 std::string num(double v) {
   if (v == 0) v = 0.0;  // no "-0"
@@ -109,14 +107,16 @@ mrpt::graphs::CNetworkOfPoses3DInf readGraphBinary(const std::string& path) {
     auto arch = mrpt::serialization::archiveFrom(in);
     arch >> net;
   } catch (const std::exception& e) {
-    throw InputError(path + ": not a binary CNetworkOfPoses3DInf (" + conciseMrptMessage(e.what()) + ")");
+    throw InputError(path + ": not a binary CNetworkOfPoses3DInf (" + conciseMrptMessage(e.what()) +
+                     ")");
   }
   return net;
 }
 
 void writeGraphText(const std::string& path, const PoseGraph& g, GraphTextLayout layout) {
   io::writeFileAtomically(path, [&](std::ostream& os) {
-    for (const auto& [id, T] : g.nodes) os << "VERTEX_SE3:QUAT " << id << ' ' << poseText(T) << '\n';
+    for (const auto& [id, T] : g.nodes)
+      os << "VERTEX_SE3:QUAT " << id << ' ' << poseText(T) << '\n';
     if (!g.nodes.empty()) os << "FIX " << g.nodes.begin()->first << '\n';
     for (const PoseGraphEdge& e : g.edges) {
       os << "EDGE_SE3:QUAT " << e.from << ' ' << e.to << ' ' << poseText(e.Z);

@@ -8,9 +8,9 @@
 #include <mrpt/serialization/CArchive.h>
 
 #include "dbacov/io/atomic_file.h"
+#include "dbacov/mrpt/mrpt_errors.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 #include "gz_streams.h"
-#include "dbacov/mrpt/mrpt_errors.h"
 #include "object_guard.h"
 
 namespace dbacov::mrpt_bridge {
@@ -119,7 +119,8 @@ RawlogSnapshotReader::RawlogSnapshotReader(const std::string& path, std::int64_t
   reader_.acceptOnly({"CObservationDbaSnapshot"});
 }
 
-RawlogSnapshotReader::RawlogSnapshotReader(const std::string& name, std::vector<unsigned char> bytes,
+RawlogSnapshotReader::RawlogSnapshotReader(const std::string& name,
+                                           std::vector<unsigned char> bytes,
                                            std::int64_t first_index)
     : path_(name), reader_(name, std::move(bytes)), next_index_(first_index) {
   reader_.acceptOnly({"CObservationDbaSnapshot"});

@@ -26,10 +26,11 @@ SyntheticSnapshot generateSyntheticSnapshot(const SyntheticSnapshotConfig& c) {
     s.setT_wc(k, out.T_wc_true.back());
     s.tstamp[k] = c.frame_interval * k;
     for (int p = 0; p < HW; ++p)
-      s.disps[static_cast<std::size_t>(k) * HW + p] = static_cast<float>(room.inverseDepth(
-          out.T_wc_true[k], (p % W - c.cx) / c.fx, (p / W - c.cy) / c.fy));
+      s.disps[static_cast<std::size_t>(k) * HW + p] = static_cast<float>(
+          room.inverseDepth(out.T_wc_true[k], (p % W - c.cx) / c.fx, (p / W - c.cy) / c.fy));
   }
-  for (const auto& [i, j] : selectEdges(out.T_wc_true, c.first_keyframe, room, K, H, W, c.covisibility)) {
+  for (const auto& [i, j] :
+       selectEdges(out.T_wc_true, c.first_keyframe, room, K, H, W, c.covisibility)) {
     s.ii.push_back(i);
     s.jj.push_back(j);
   }
@@ -50,7 +51,8 @@ SyntheticSnapshot generateSyntheticSnapshot(const SyntheticSnapshotConfig& c) {
     float* wy = wx + HW;
     for (int p = 0; p < HW; ++p) {
       const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
-      const Eigen::Vector3d Y = transferPoint(T_ji.linear(), T_ji.translation(), K, p % W, p / W, d);
+      const Eigen::Vector3d Y =
+          transferPoint(T_ji.linear(), T_ji.translation(), K, p % W, p / W, d);
       const bool zero = u01(rng) < c.zero_weight_fraction || !(Y.z() > 0);
       const double w[2] = {zero ? 0.0 : uw(rng), zero ? 0.0 : uw(rng)};
       const double proj[2] = {Y.z() > 0 ? K.fx * Y.x() / Y.z() + K.cx : 0.0,

@@ -29,6 +29,7 @@ struct ExtraConstraints {
 /// Parses the file. Throws InputError "FILE:LINE: what was wrong" for unknown keywords, wrong
 /// counts, non-numbers, non-finite values, zero quaternions, negative or zero sigmas, covariances
 /// that are not positive definite, self-constraints, and node ids not in `nodes` (when given).
-ExtraConstraints readExtraConstraints(const std::string& path, const std::map<int, Eigen::Isometry3d>& nodes);
+ExtraConstraints readExtraConstraints(const std::string& path,
+                                      const std::map<int, Eigen::Isometry3d>& nodes);
 
 }  // namespace dbacov::app

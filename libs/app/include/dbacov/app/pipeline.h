@@ -12,9 +12,9 @@
 namespace dbacov::app {
 
 struct PipelineItem {
-  SnapshotItem input;                   ///< the snapshot, or why it could not be read
-  std::unique_ptr<DbaCovariance> cov;   ///< set by `compute` on success
-  std::string error;                    ///< set by `compute` on failure (the error alone)
+  SnapshotItem input;                  ///< the snapshot, or why it could not be read
+  std::unique_ptr<DbaCovariance> cov;  ///< set by `compute` on success
+  std::string error;                   ///< set by `compute` on failure (the error alone)
   FailureKind error_kind = FailureKind::Internal;  ///< set by `compute` on failure
 };
 

@@ -1,9 +1,9 @@
 // The DBA pixel factor (SPEC §2) and its analytic Jacobians (SPEC §3 tangent).
 //
 // For edge (i, j) and pixel (x, y) of frame i with inverse depth d:
-//   X  = [ (x−cx)/fx, (y−cy)/fy, 1, d ]ᵀ            homogeneous point of frame i (metric = X[0:3]/d)
-//   Y  = T_ji X,   T_ji = T_cw_j · T_wc_i           same point in frame j (Y[3] = d)
-//   r  = target − π(Y),  π(Y) = [fx·Y0/Y2 + cx, fy·Y1/Y2 + cy]
+//   X  = [ (x−cx)/fx, (y−cy)/fy, 1, d ]ᵀ            homogeneous point of frame i (metric =
+//   X[0:3]/d) Y  = T_ji X,   T_ji = T_cw_j · T_wc_i           same point in frame j (Y[3] = d) r  =
+//   target − π(Y),  π(Y) = [fx·Y0/Y2 + cx, fy·Y1/Y2 + cy]
 //
 // Derivatives, with the right perturbations T_wc_i Exp(ξ_i), T_wc_j Exp(ξ_j), ξ = [ρ; φ]:
 //   Exp(ξ_i) X ≈ X + [φ_i × p + d ρ_i; 0]  (p = X[0:3])  ⇒ ∂Y/∂ξ_i = R_ji [d·I, −[p]×]
@@ -27,10 +27,10 @@ struct PinholeIntrinsics {
 
 /// One pixel factor linearized at the current state.
 struct PixelFactorLinearization {
-  Eigen::Vector2d r;                  ///< residual target − π(Y), pixels
-  Eigen::Matrix<double, 2, 6> J_i;    ///< ∂r/∂ξ_i (source keyframe)
-  Eigen::Matrix<double, 2, 6> J_j;    ///< ∂r/∂ξ_j (target keyframe)
-  Eigen::Vector2d J_d;                ///< ∂r/∂d   (inverse depth of the source pixel)
+  Eigen::Vector2d r;                ///< residual target − π(Y), pixels
+  Eigen::Matrix<double, 2, 6> J_i;  ///< ∂r/∂ξ_i (source keyframe)
+  Eigen::Matrix<double, 2, 6> J_j;  ///< ∂r/∂ξ_j (target keyframe)
+  Eigen::Vector2d J_d;              ///< ∂r/∂d   (inverse depth of the source pixel)
 };
 
 /// The point in frame j, Y[0:3] of SPEC §2 (Y[3] = d). Y.z() = z_j·d is DROID's "depth ratio".
@@ -62,8 +62,8 @@ inline void linearizePixelFactor(const Eigen::Matrix3d& R_ji, const Eigen::Vecto
 }
 
 /// Residual from the two camera-to-world poses directly (the reference for finite differences).
-Eigen::Vector2d pixelFactorResidual(const Eigen::Isometry3d& T_wc_i, const Eigen::Isometry3d& T_wc_j,
-                                    const PinholeIntrinsics& K, double x, double y, double d,
-                                    double target_x, double target_y);
+Eigen::Vector2d pixelFactorResidual(const Eigen::Isometry3d& T_wc_i,
+                                    const Eigen::Isometry3d& T_wc_j, const PinholeIntrinsics& K,
+                                    double x, double y, double d, double target_x, double target_y);
 
 }  // namespace dbacov

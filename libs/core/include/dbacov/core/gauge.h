@@ -7,12 +7,13 @@
 //     S_r[a,b] = basis[a]ᵀ S[a,b] basis[b] (+ prior[a] on the diagonal),
 // and the covariance of ξ_a is basis[a] Σ_r[a,a] basis[a]ᵀ (exactly zero along removed directions).
 //
-// two-pose: the two lowest-indexed keyframes in `ii` get a prior diag(σ_t⁻², σ_t⁻², σ_t⁻², σ_r⁻²...)
+// two-pose: the two lowest-indexed keyframes in `ii` get a prior diag(σ_t⁻², σ_t⁻², σ_t⁻²,
+// σ_r⁻²...)
 //           in [ρ; φ]; a component with σ = 0 is removed instead (hard fix).
 // minimal:  the first keyframe is removed (m = 0); for the second, only the direction that changes
 //           the distance between the two centres is removed. With c_a, c_b the centres and
-//           u = (c_b − c_a)/|c_b − c_a|, the centre moves by δc_b = R_b ρ_b, so the distance changes
-//           by uᵀ R_b ρ_b: the removed direction is [R_bᵀ u; 0] and m_b = 5.
+//           u = (c_b − c_a)/|c_b − c_a|, the centre moves by δc_b = R_b ρ_b, so the distance
+//           changes by uᵀ R_b ρ_b: the removed direction is [R_bᵀ u; 0] and m_b = 5.
 #pragma once
 
 #include <vector>

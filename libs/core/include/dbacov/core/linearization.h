@@ -26,28 +26,28 @@ namespace dbacov {
 /// The depth variables of one source keyframe (kept only on request).
 struct DepthTerms {
   int source_slot = -1;
-  std::vector<int> touched;   ///< slots: touched[0] = source, then the distinct edge targets
-  std::vector<int> pixel;     ///< pixel index y·W + x of each kept depth variable
-  std::vector<double> h;      ///< Hdd entry of each kept depth (> depth_info_eps)
-  std::vector<double> g;      ///< g_d entry of each kept depth
-  Eigen::MatrixXd B;          ///< 6·|touched| × pixel.size(): column k is b_k on the touched slots
+  std::vector<int> touched;  ///< slots: touched[0] = source, then the distinct edge targets
+  std::vector<int> pixel;    ///< pixel index y·W + x of each kept depth variable
+  std::vector<double> h;     ///< Hdd entry of each kept depth (> depth_info_eps)
+  std::vector<double> g;     ///< g_d entry of each kept depth
+  Eigen::MatrixXd B;         ///< 6·|touched| × pixel.size(): column k is b_k on the touched slots
 };
 
 struct LinearizationStats {
-  std::size_t factors_used = 0;          ///< pixel factors (edge, pixel) that carry information
-  std::size_t factors_filtered = 0;      ///< dropped by the depth filters or behind the camera
-  std::size_t depths_used = 0;           ///< depth variables eliminated
-  std::size_t depths_unobservable = 0;   ///< depth variables with 0 < Hdd <= eps (not eliminated)
-  double chi2 = 0.0;                     ///< Σ rᵀ Λ r over used factors
+  std::size_t factors_used = 0;         ///< pixel factors (edge, pixel) that carry information
+  std::size_t factors_filtered = 0;     ///< dropped by the depth filters or behind the camera
+  std::size_t depths_used = 0;          ///< depth variables eliminated
+  std::size_t depths_unobservable = 0;  ///< depth variables with 0 < Hdd <= eps (not eliminated)
+  double chi2 = 0.0;                    ///< Σ rᵀ Λ r over used factors
 };
 
 struct DbaNormalEquations {
-  std::vector<int> keyframes;  ///< slot → keyframe index (the graph keyframes, ascending)
-  std::vector<int> slot_of;    ///< keyframe index → slot, or −1 when not in the graph
-  BlockSymmetricMatrix Hpp;    ///< pose block before elimination
-  BlockSymmetricMatrix S;      ///< reduced pose system
-  Eigen::VectorXd g_p;         ///< pose gradient before elimination (6 per slot)
-  Eigen::VectorXd g_S;         ///< reduced gradient
+  std::vector<int> keyframes;      ///< slot → keyframe index (the graph keyframes, ascending)
+  std::vector<int> slot_of;        ///< keyframe index → slot, or −1 when not in the graph
+  BlockSymmetricMatrix Hpp;        ///< pose block before elimination
+  BlockSymmetricMatrix S;          ///< reduced pose system
+  Eigen::VectorXd g_p;             ///< pose gradient before elimination (6 per slot)
+  Eigen::VectorXd g_S;             ///< reduced gradient
   std::vector<DepthTerms> depths;  ///< per source keyframe, only with keep_depth_terms
   LinearizationStats stats;
 };

@@ -21,7 +21,7 @@ namespace dbacov {
 struct PoseGraphEdge {
   int from = 0, to = 0;
   Eigen::Isometry3d Z = Eigen::Isometry3d::Identity();  ///< measured T_from⁻¹ T_to
-  Matrix6d information = Matrix6d::Identity();           ///< of the tangent of Z
+  Matrix6d information = Matrix6d::Identity();          ///< of the tangent of Z
 };
 
 struct PoseGraph {
@@ -86,7 +86,8 @@ struct PoseGraphOptimizerSummary {
 };
 
 /// Weighted cost Σ_e r_eᵀ Λ_e r_e and the largest gradient entry over the non-fixed nodes.
-std::pair<double, double> poseGraphCostAndGradient(const PoseGraph& graph, const std::set<int>& fixed);
+std::pair<double, double> poseGraphCostAndGradient(const PoseGraph& graph,
+                                                   const std::set<int>& fixed);
 
 /// Levenberg-Marquardt on the graph's weighted cost with the residuals of poseGraphEdgeResidual
 /// (the convention of MRPT's optimizer), sparse Cholesky steps, `fixed` nodes held. Updates the

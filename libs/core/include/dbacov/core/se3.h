@@ -1,8 +1,8 @@
 // The one convention file for poses (SPEC §3).
 //
-// Frames:       T_wc maps camera coordinates to world coordinates (camera-to-world); T_cw = T_wc^-1.
-// Perturbation: on the right, T_true = T · Exp(ξ).
-// Tangent:      ξ = [ρ; φ] ∈ R^6, translation first, rotation second, with the true SE(3)
+// Frames:       T_wc maps camera coordinates to world coordinates (camera-to-world); T_cw =
+// T_wc^-1. Perturbation: on the right, T_true = T · Exp(ξ). Tangent:      ξ = [ρ; φ] ∈ R^6,
+// translation first, rotation second, with the true SE(3)
 //               exponential Exp(ξ) = [Exp_SO3(φ), V(φ) ρ; 0, 1] (V = left Jacobian of SO(3)).
 //               This is MRPT's graph-slam edge convention ([t; ω], right perturbation).
 // Adjoint:      T Exp(ξ) T^-1 = Exp(Ad(T) ξ),  Ad(T) = [R, [t]× R; 0, R].

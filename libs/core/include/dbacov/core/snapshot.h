@@ -5,11 +5,10 @@
 //   disps        N×H×W inverse depth per pixel, C order (index (n*H + y)*W + x)
 //   intrinsics   fx fy cx cy of the H×W grid
 //   ii, jj       E edges: source keyframe ii[e] → target keyframe jj[e] (0-based into poses)
-//   target       E×2×H×W predicted pixel coordinates in frame jj[e] (channel 0 = x/column, 1 = y/row)
-//   weight       E×2×H×W per-pixel, per-axis confidence
-//   tstamp       N keyframe time stamps (DROID's image index)
-//   timestamps_s optional, N keyframe times in seconds
-//   id           optional snapshot counter
+//   target       E×2×H×W predicted pixel coordinates in frame jj[e] (channel 0 = x/column, 1 =
+//   y/row) weight       E×2×H×W per-pixel, per-axis confidence tstamp       N keyframe time stamps
+//   (DROID's image index) timestamps_s optional, N keyframe times in seconds id           optional
+//   snapshot counter
 //
 // Per-pixel arrays stay in single precision, as DROID produces them; everything derived from them
 // is computed in double precision.

@@ -11,9 +11,9 @@
 // lock), where yaw and roll are not separable: the conversion refuses |cos p| < 1e-9.
 #pragma once
 
-#include <Eigen/Geometry>
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/poses/CPose3DPDFGaussian.h>
+#include <Eigen/Geometry>
 
 #include "dbacov/core/se3.h"
 

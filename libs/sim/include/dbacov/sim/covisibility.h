@@ -12,10 +12,10 @@
 namespace dbacov::sim {
 
 struct CovisibilityConfig {
-  int edge_radius = 2;             ///< link keyframes with |i − j| <= edge_radius
-  double overlap_threshold = 0.0;  ///< > 0: also link farther pairs whose views overlap this much
-  int max_overlap_edges = 2;       ///< per keyframe, the best-overlapping farther partners
-  double candidate_distance = 1.0; ///< metres between centres for a farther pair to be tested
+  int edge_radius = 2;              ///< link keyframes with |i − j| <= edge_radius
+  double overlap_threshold = 0.0;   ///< > 0: also link farther pairs whose views overlap this much
+  int max_overlap_edges = 2;        ///< per keyframe, the best-overlapping farther partners
+  double candidate_distance = 1.0;  ///< metres between centres for a farther pair to be tested
 };
 
 /// Fraction of a coarse pixel grid of view i (true depths from the scene) that lands inside

@@ -27,18 +27,18 @@ struct SyntheticSnapshotConfig {
   double frame_interval = 3.0;  ///< `tstamp` of keyframe k is k·frame_interval (image index)
   TrajectoryConfig trajectory;  ///< its num_keyframes is the whole trajectory's (for turnarounds)
   CovisibilityConfig covisibility;
-  int first_keyframe = 0;       ///< keyframes before it exist in `poses` but take part in no edge
+  int first_keyframe = 0;  ///< keyframes before it exist in `poses` but take part in no edge
   double weight_min = 0.2, weight_max = 1.0;  ///< per-pixel, per-axis confidences ~ U[min, max]
   double zero_weight_fraction = 0.1;          ///< fraction of pixels whose confidences are 0
-  double weight_scale = 4.0;    ///< information of a target = weight_scale · w (px⁻²)
-  bool noise = true;            ///< add target noise N(0, 1/(weight_scale·w)); false = exact
+  double weight_scale = 4.0;  ///< information of a target = weight_scale · w (px⁻²)
+  bool noise = true;          ///< add target noise N(0, 1/(weight_scale·w)); false = exact
   std::uint64_t seed = 1;
   std::int64_t id = 0;
 };
 
 struct SyntheticSnapshot {
-  Snapshot snapshot;                        ///< state = ground truth; targets noisy
-  std::vector<Eigen::Isometry3d> T_wc_true; ///< per keyframe
+  Snapshot snapshot;                         ///< state = ground truth; targets noisy
+  std::vector<Eigen::Isometry3d> T_wc_true;  ///< per keyframe
 };
 
 /// Generates a valid snapshot (Snapshot::validate passes). Deterministic for a given config.
