@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets everything up (packages + Release build) and runs the whole test suite (ctest over
-# GoogleTest), then the reliability passes (README "Reliability"):
+# GoogleTest) after the source checks (scripts/check_source.sh: clang-format, MRPT only in
+# libs/mrpt), then the reliability passes (README "Reliability"):
 #   1. the suite in build/ (Release);
 #   2. the suite again under AddressSanitizer + UndefinedBehaviorSanitizer in build-asan/
 #      (-O1, assertions on, benchmarks off; any sanitizer report fails its test);
@@ -16,6 +17,8 @@ report() { echo "test.sh: $1 took $(($(clock) - $2)) s" >&2; }
 
 t0=$(clock)
 scripts/setup.sh
+# Formatting and layout rules first: a violation fails the run before any test (check_source.sh).
+scripts/check_source.sh
 report "setup + Release build" "$t0"
 if [[ " $passes " == *" release "* ]]; then
   t=$(clock)

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Source checks that CI runs before building (scripts/test.sh): fails on
+#   1. C++ files that differ from the committed .clang-format (fix: scripts/check_source.sh --fix);
+#   2. an MRPT header included in libs/, apps/ or python/ outside libs/mrpt: the MRPT bridge is
+#      the only code that sees MRPT, so the other libraries and the Python module load without it
+#      (tests may include MRPT: they check the files we write with MRPT itself);
+#   3. OpenCV included in libs/core, libs/io or libs/app.
+# Usage: scripts/check_source.sh [--fix]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+status=0
+mapfile -t files < <(git ls-files '*.cpp' '*.h' '*.hpp' '*.cc')
+if [ "${1:-}" = "--fix" ]; then
+  clang-format -i "${files[@]}"
+fi
+unformatted=()
+for f in "${files[@]}"; do
+  [ -f "$f" ] || continue
+  clang-format --dry-run -Werror "$f" > /dev/null 2>&1 || unformatted+=("$f")
+done
+if ((${#unformatted[@]})); then
+  echo "check_source: ${#unformatted[@]} file(s) differ from .clang-format (run scripts/check_source.sh --fix):" >&2
+  printf '  %s\n' "${unformatted[@]}" >&2
+  status=1
+fi
+mrpt=$(git grep -nE '^\s*#\s*include\s*[<"]mrpt/' -- 'libs' 'apps' 'python' ':!libs/mrpt/' || true)
+if [ -n "$mrpt" ]; then
+  echo "check_source: MRPT is included outside libs/mrpt (move the code into the bridge):" >&2
+  echo "$mrpt" | sed 's/^/  /' >&2
+  status=1
+fi
+opencv=$(git grep -nE '^\s*#\s*include\s*[<"]opencv2/' -- 'libs/core' 'libs/io' 'libs/app' || true)
+if [ -n "$opencv" ]; then
+  echo "check_source: OpenCV is included in libs/core, libs/io or libs/app:" >&2
+  echo "$opencv" | sed 's/^/  /' >&2
+  status=1
+fi
+[ "$status" -eq 0 ] && echo "check_source: ${#files[@]} C++ files formatted; MRPT only in libs/mrpt" >&2
+exit "$status"
