@@ -1,7 +1,7 @@
 // The DBA problem as Ceres sees it (peer comparison, benchmarks only).
 //
 // Parameter blocks are the perturbations themselves — ξ_k ∈ R^6 of every graph keyframe with
-// T_wc = T_wc⁰·Exp(ξ_k) (SPEC §3) and δd for every used inverse depth — evaluated at 0, so
+// T_wc = T_wc⁰·Exp(ξ_k) (conventions §3) and δd for every used inverse depth — evaluated at 0, so
 // ceres::Covariance returns covariances in dbacov's tangent directly. Gauge keyframes (the droid
 // preset's hard two-pose gauge) are constant blocks.
 #pragma once

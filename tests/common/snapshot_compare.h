@@ -1,4 +1,4 @@
-// Bit-for-bit comparison of two snapshots (every array and scalar of SPEC §1), for round trips.
+// Bit-for-bit comparison of two snapshots (every array and scalar of conventions §1), for round trips.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 namespace dbacov::testing {
 
 /// `intrinsics_as_float32`: compare the intrinsics at float32 precision, for a snapshot that went
-/// through a .npz file (SPEC §1 stores them as float32) against one that did not.
+/// through a .npz file (conventions §1 stores them as float32) against one that did not.
 inline void expectSameSnapshot(const Snapshot& a, const Snapshot& b,
                                bool intrinsics_as_float32 = false) {
   EXPECT_EQ(a.H, b.H);

@@ -1,5 +1,5 @@
 // Consistency of the whole chain (simulator → DBA solve → covariances → NEES) by Monte Carlo, the
-// independent reference being the chi-square distribution itself (SPEC §7):
+// independent reference being the chi-square distribution itself (conventions §7):
 //   - white target noise: absolute and relative ANEES inside the 95 % region, coverage at nominal;
 //   - target noise twice what the confidences claim: the fitted inflation is the known 4;
 //   - spatially correlated noise: raw ANEES far above the region; calibrated on some runs, the
@@ -58,7 +58,7 @@ TEST(MonteCarlo, WhiteNoiseIsConsistentWithTheTwoPoseGaugeAtTheTruth) {
   ASSERT_EQ(r.samples.relative.size(), 60u * 4);  // pair 0-1 is fixed too
   expectConsistent(r.samples.absolute, "absolute NEES");
   expectConsistent(r.samples.relative, "relative NEES");
-  // One sample per run: the exact region of SPEC §7 (newest keyframe, last pair).
+  // One sample per run: the exact region of conventions §7 (newest keyframe, last pair).
   EXPECT_TRUE(summarize(group(r.samples.absolute, "s0/kf5")).inside)
       << summarize(group(r.samples.absolute, "s0/kf5")).anees;
   EXPECT_TRUE(summarize(group(r.samples.relative, "s0/4-5")).inside)

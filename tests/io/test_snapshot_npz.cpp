@@ -1,4 +1,4 @@
-// Snapshot files (SPEC §1): the real DROID snapshot in ../shared/data, checked against NumPy;
+// Snapshot files (conventions §1): the real DROID snapshot in ../shared/data, checked against NumPy;
 // shape/dtype/missing-key errors; save → load round trips that NumPy can read.
 #include <cmath>
 #include <filesystem>

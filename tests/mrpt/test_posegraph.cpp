@@ -178,7 +178,7 @@ Matrix6d randomInformation(std::mt19937& rng) {
   return 0.5 * (I + I.transpose());
 }
 
-/// The optimum of a small graph by our own Gauss-Newton with the SPEC §3 residuals (node 0 fixed).
+/// The optimum of a small graph by our own Gauss-Newton with the conventions §3 residuals (node 0 fixed).
 std::map<int, Eigen::Isometry3d> referenceOptimum(PoseGraph g) {
   for (int it = 0; it < 100; ++it) {
     const int n = static_cast<int>(g.nodes.size()) - 1;
@@ -335,7 +335,7 @@ TEST(PoseGraphOptimizer, BadExtraConstraintsAreExplained) {
 TEST(PoseGraphOptimizer, ReachesTheWeightedOptimumOfATriangle) {
   // A triangle 0 → 1 → 2, 0 → 2 with inconsistent measurements and strongly anisotropic,
   // correlated informations: the result must be the optimum of an independent dense Gauss-Newton
-  // on the SPEC §3 residuals.
+  // on the conventions §3 residuals.
   std::mt19937 rng(11);
   PoseGraph g;
   g.nodes[0] = expSE3((Vector6d() << 0.3, 0.1, -0.2, 0.4, -0.3, 1.2).finished());

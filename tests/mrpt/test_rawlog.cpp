@@ -94,7 +94,7 @@ TEST(Rawlog, RawlogEditReadsSnapshotsOnlyWithThePlugin) {
   testing::writeTinySnapshot(dir.file("c.npz"), 3, 2);
   ASSERT_EQ(droid2rawlog({"-i", dir.path(), "-o", dir.file("s.rawlog"), "-q"}).code, 0);
   EXPECT_EQ(rawlogEditObjectCount(dir.file("s.rawlog"), true), 3);
-  // Without the plugin MRPT stops at the unknown class and still exits 0 (SPEC §6).
+  // Without the plugin MRPT stops at the unknown class and still exits 0 (conventions §6).
   EXPECT_LT(rawlogEditObjectCount(dir.file("s.rawlog"), false), 3);
   const AppResult info =
       testing::runCommand(kRawlogEdit + "-p " + kPlugin + " --info -i " + dir.file("s.rawlog"));

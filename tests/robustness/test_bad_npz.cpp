@@ -81,7 +81,7 @@ std::vector<BadNpz> corpus() {
       // Keys, dtypes and shapes.
       arrays(
           "missing_weight", [](auto& a) { testing::removeKey(a, "weight"); },
-          "missing required key 'weight' (SPEC §1)"),
+          "missing required key 'weight' (conventions §1)"),
       arrays(
           "ii_float",
           [](auto& a) {

@@ -17,7 +17,7 @@ namespace dbacov::app {
 namespace {
 
 constexpr const char* kFooter = R"(
-Conventions (SPEC 3 and 7):
+Conventions (docs/conventions.md §3 and §7):
   Error e = Log(T_est^-1 T_true) in the tangent [rho; phi] of the right perturbation
   T_wc Exp(xi); NEES = e' Sigma^+ e over the range of Sigma (DoF = its rank; hard-fixed keyframes
   are no sample). ANEES = mean NEES. Its 95% region is [chi2_{N k}(0.025), chi2_{N k}(0.975)] / N

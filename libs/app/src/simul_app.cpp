@@ -22,7 +22,7 @@ namespace {
 
 constexpr const char* kFooter = R"(
 Outputs (all written atomically):
-  DIR/snapshot_NNNN.npz  one DROID snapshot per DBA (SPEC 1 format: poses T_cw, disps, targets,
+  DIR/snapshot_NNNN.npz  one DROID snapshot per DBA (conventions §1 format: poses T_cw, disps, targets,
                          weights, tstamp = 3 k, timestamps_s = start + tstamp / fps, id = N);
                          not with --no-npz
   DIR/groundtruth.tum    every keyframe of the sequence: t tx ty tz qx qy qz qw, camera-to-world,

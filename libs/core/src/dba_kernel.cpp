@@ -104,7 +104,7 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
     for (int p = 0; p < n; ++p) {
       const double x = xn[p], y = yn[p], dd = d[p];
       const double w0 = flt.weight_scale * e.wx[p0 + p], w1 = flt.weight_scale * e.wy[p0 + p];
-      // Y = R_ji [x y 1]ᵀ + t_ji d   (SPEC §2)
+      // Y = R_ji [x y 1]ᵀ + t_ji d   (conventions §2)
       const double Y0 = R[0] * x + R[1] * y + R[2] + e.t[0] * dd;
       const double Y1 = R[3] * x + R[4] * y + R[5] + e.t[1] * dd;
       const double Y2 = R[6] * x + R[7] * y + R[8] + e.t[2] * dd;

@@ -9,7 +9,7 @@
 namespace dbacov {
 namespace {
 
-/// The two lowest-indexed keyframes that appear in `ii` (SPEC §4), as slots.
+/// The two lowest-indexed keyframes that appear in `ii` (conventions §4), as slots.
 std::vector<int> gaugeSlots(const Snapshot& s, const std::vector<int>& keyframes) {
   const std::set<std::int64_t> sources(s.ii.begin(), s.ii.end());
   std::vector<int> slots;

@@ -1,4 +1,4 @@
-// Snapshot <-> .npz (SPEC §1): every shape relation is checked here, values in Snapshot::validate.
+// Snapshot <-> .npz (conventions §1): every shape relation is checked here, values in Snapshot::validate.
 #include "dbacov/io/snapshot_npz.h"
 
 #include <algorithm>
@@ -19,7 +19,7 @@ class SnapshotReader {
   std::string context(const std::string& key) const { return path_ + ": key '" + key + "'"; }
 
   NpyArray required(const std::string& key) const {
-    if (!npz_.has(key)) throw InputError(path_ + ": missing required key '" + key + "' (SPEC §1)");
+    if (!npz_.has(key)) throw InputError(path_ + ": missing required key '" + key + "' (conventions §1)");
     return npz_.read(key);
   }
   std::optional<NpyArray> optional(const std::string& key) const {
@@ -57,7 +57,7 @@ class SnapshotReader {
   NpzReader npz_;
 };
 
-/// Reads and checks every key of the archive `npz` (SPEC §1); `path` names it in messages.
+/// Reads and checks every key of the archive `npz` (conventions §1); `path` names it in messages.
 Snapshot readSnapshot(const std::string& path, NpzReader npz, std::int64_t index) {
   const SnapshotReader r(path, std::move(npz));
   const NpyArray poses = r.required("poses"), disps = r.required("disps"),

@@ -1,4 +1,4 @@
-// `dba-covariance`: marginal pose covariances of DBA snapshots (SPEC §2–§5).
+// `dba-covariance`: marginal pose covariances of DBA snapshots (conventions §2–§5).
 #pragma once
 
 #include <optional>

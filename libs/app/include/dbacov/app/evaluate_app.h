@@ -1,4 +1,4 @@
-// `dba-evaluate`: consistency of pose covariances against ground truth (SPEC §7): NEES of
+// `dba-evaluate`: consistency of pose covariances against ground truth (conventions §7): NEES of
 // keyframe poses and of consecutive relative poses, ANEES with the two-sided 95 % chi-square
 // region, per-axis 1/2/3-sigma coverage, Spearman correlation between predicted uncertainty and
 // actual error, and the calibration of the covariance scale (variance inflation factor and the

@@ -65,7 +65,7 @@ struct KeyframeCovarianceRow {
   int keyframe = 0;
   double tstamp = 0;
   Eigen::Isometry3d T_wc = Eigen::Isometry3d::Identity();
-  Matrix6d Sigma = Matrix6d::Zero();  ///< tangent covariance (SPEC §3)
+  Matrix6d Sigma = Matrix6d::Zero();  ///< tangent covariance (conventions §3)
   std::string where;                  ///< "file:line"
 };
 /// `dba-covariance --csv`: columns found by name in the header (snapshot, keyframe, tstamp,

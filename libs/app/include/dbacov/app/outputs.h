@@ -107,7 +107,7 @@ enum class EmitMode {
 EmitMode parseEmitMode(const std::string& name);
 
 /// `-o poses.rawlog`: CObservationRobotPose with a CPose3DPDFGaussian (mean T_wc, covariance
-/// converted from the tangent, SPEC §6) per emitted keyframe, timestamped with the keyframe time.
+/// converted from the tangent, conventions §6) per emitted keyframe, timestamped with the keyframe time.
 class PoseRawlogSink final : public OutputSink {
  public:
   PoseRawlogSink(const std::string& path, std::string label, EmitMode mode);

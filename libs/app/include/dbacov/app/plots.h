@@ -13,7 +13,7 @@
 //       right, y down, z forward; the snapshots' length unit) and rotation (φx, φy, φz, degrees),
 //       log scale; zero (fixed) components left out.
 //   DIR/depth_sigma/<snapshot>_<keyframe>.png  per source keyframe with depth maps: its inverse
-//       depth d and the standard deviation of d per pixel (SPEC §5; log colour scale), colour maps
+//       depth d and the standard deviation of d per pixel (conventions §5; log colour scale), colour maps
 //       with colour bars; grey where a pixel carries no information. Keyframes whose pixels carry
 //       none get no file.
 //   DIR/keyframes.csv  the plotted values, one row per keyframe in time order:

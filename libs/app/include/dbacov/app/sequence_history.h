@@ -32,7 +32,7 @@ struct KeyframeRecord {
   int keyframe = 0;              ///< index into the poses of the chosen snapshot
   std::int64_t snapshot = 0;     ///< label of the chosen snapshot (Snapshot::label)
   Eigen::Isometry3d T_wc = Eigen::Isometry3d::Identity();
-  Matrix6d Sigma = Matrix6d::Zero();  ///< tangent covariance [ρ; φ] (SPEC §3)
+  Matrix6d Sigma = Matrix6d::Zero();  ///< tangent covariance [ρ; φ] (conventions §3)
   bool gauge = false;                 ///< a gauge keyframe of the chosen snapshot
 };
 

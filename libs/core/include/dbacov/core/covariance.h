@@ -1,11 +1,11 @@
-// Marginal pose covariances of one DBA snapshot (SPEC §4–§5). The query API is deliberately small:
+// Marginal pose covariances of one DBA snapshot (conventions §4–§5). The query API is deliberately small:
 // build once, then ask for one keyframe's covariance, a joint block or a relative-pose covariance.
 //
 // Statistical model: every pixel factor r ~ N(0, Λ⁻¹) with Λ = weight_scale · diag(w_x, w_y),
 // independent across pixels and edges, linearized at the snapshot's state (which DBA made a local
 // optimum). The covariances are the inverse of the Gauss-Newton information with the depths
-// marginalized and the gauge of SPEC §4; they are as good as this model. Raw DROID weights treat
-// correlated pixels as independent, so calibrate `weight_scale` against ground truth (SPEC §7).
+// marginalized and the gauge of conventions §4; they are as good as this model. Raw DROID weights treat
+// correlated pixels as independent, so calibrate `weight_scale` against ground truth (conventions §7).
 //
 // Construction fails with
 //   - InputError      when the snapshot is invalid,
@@ -53,15 +53,15 @@ class DbaCovariance {
   /// Number of free tangent DoF of a keyframe after the gauge (6, or fewer for gauge keyframes).
   int freeDof(int keyframe) const;
 
-  /// 6×6 covariance of ξ_k (SPEC §3). Zero for hard-fixed keyframes.
+  /// 6×6 covariance of ξ_k (conventions §3). Zero for hard-fixed keyframes.
   Matrix6d marginal(int keyframe) const;
   /// 12×12 joint covariance of (ξ_a, ξ_b), a first.
   Matrix12d joint(int a, int b) const;
-  /// Covariance of the tangent of Z = T_wc_a⁻¹ T_wc_b (SPEC §5).
+  /// Covariance of the tangent of Z = T_wc_a⁻¹ T_wc_b (conventions §5).
   Matrix6d relative(int a, int b) const;
 
   /// Standard deviation of the inverse depth of every pixel of source keyframe `keyframe`
-  /// (H×W, C order): var(d_k) = 1/h_k + b_kᵀ Σ b_k / h_k² (SPEC §5), using only the blocks of Σ
+  /// (H×W, C order): var(d_k) = 1/h_k + b_kᵀ Σ b_k / h_k² (conventions §5), using only the blocks of Σ
   /// between the keyframe and its edge targets. NaN where a pixel carries no information (no
   /// weighted factor, filtered, d <= 0, or unobservable). Requires depth_variances in the
   /// solver options (std::logic_error otherwise); keyframes that are no edge source get all NaN.

@@ -1,5 +1,5 @@
 // A dense bundle adjustment solver: Levenberg-Marquardt on the DBA cost of a snapshot, with the
-// depths eliminated by the Schur complement and the gauge of SPEC §4 held.
+// depths eliminated by the Schur complement and the gauge of conventions §4 held.
 //
 // The simulator uses it so that every synthetic snapshot's state is the optimum of its own noisy
 // measurements, as DROID-SLAM's DBA makes its state. It is a solver, not a covariance method: its
@@ -7,7 +7,7 @@
 // without it).
 //
 // Cost: F = ½ Σ rᵀ Λ r over the pixel factors that carry information under the options' filters
-// (SPEC §2, exactly the factors linearizeDba uses), plus, for a soft two-pose gauge, the priors
+// (conventions §2, exactly the factors linearizeDba uses), plus, for a soft two-pose gauge, the priors
 // ½ eᵀ P e with e = Log(T_wc_0⁻¹ T_wc) of the gauge keyframes, centred on their *initial* poses.
 //
 // One iteration (the linear algebra of linearization.h):
@@ -18,7 +18,7 @@
 //   3. reduce to the gauge coordinates (ξ_a = basis_a x_a, gauge.h) and solve S_λ,r x = −g_λ,r
 //      with CHOLMOD; δξ_a = basis_a x_a, so hard-fixed components never move;
 //   4. back-substitute the depths: δd_k = −(g_k + b_kᵀ δp) / ((1+λ) h_k);
-//   5. trial state T_wc_a · Exp(δξ_a) (SPEC §3) and d_k + δd_k; inverse depths are bounded below
+//   5. trial state T_wc_a · Exp(δξ_a) (conventions §3) and d_k + δd_k; inverse depths are bounded below
 //      by min_inverse_depth (DROID clamps at 0.001): a step that crosses the bound is clamped, and
 //      a depth at the bound whose gradient points further down is *active*: it is held (δd = 0,
 //      not eliminated: its b_k b_kᵀ/((1+λ) h_k) is added back to S_λ) and left out of the

@@ -1,4 +1,4 @@
-// The gauge of monocular DBA as a parameterization of the pose tangents (SPEC §4).
+// The gauge of monocular DBA as a parameterization of the pose tangents (conventions §4).
 //
 // Monocular DBA is invariant to a similarity transform of the world (6 pose DoF + scale), so S is
 // singular. Both gauges are expressed the same way: slot a keeps the coordinates x_a of

@@ -1,6 +1,6 @@
-// Linearization of a snapshot's DBA at its stored state and elimination of the depths (SPEC §4).
+// Linearization of a snapshot's DBA at its stored state and elimination of the depths (conventions §4).
 //
-// Variables: the tangent ξ_a (SPEC §3) of every graph keyframe ("slot" a, ascending keyframe index)
+// Variables: the tangent ξ_a (conventions §3) of every graph keyframe ("slot" a, ascending keyframe index)
 // and one inverse depth d_k per (source keyframe, pixel), shared by every edge leaving that
 // keyframe. With whitened residuals the normal equations are
 //     [Hpp  Hpd] [δp]     [g_p]
@@ -52,7 +52,7 @@ struct DbaNormalEquations {
   LinearizationStats stats;
 };
 
-/// Decides whether a pixel factor carries information under the options' filters (SPEC §2):
+/// Decides whether a pixel factor carries information under the options' filters (conventions §2):
 /// Y2 = z_j·d must be positive, >= min_depth_ratio when set; with near: d < 1/near and
 /// Y2/d > near; with far: d > 1/far.
 bool keepPixelFactor(const DbaOptions& options, double d, double Y2);

@@ -1,4 +1,4 @@
-// Selected entries of Σ = S⁻¹ for a sparse symmetric positive definite S (SPEC §5).
+// Selected entries of Σ = S⁻¹ for a sparse symmetric positive definite S (conventions §5).
 #pragma once
 
 #include <memory>

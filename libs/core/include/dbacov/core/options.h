@@ -1,4 +1,4 @@
-// Options of the covariance engine: measurement weighting, pixel filters and gauge (SPEC §2, §4).
+// Options of the covariance engine: measurement weighting, pixel filters and gauge (conventions §2, §4).
 #pragma once
 
 #include <optional>
@@ -6,7 +6,7 @@
 
 namespace dbacov {
 
-/// How the 7-DoF gauge of monocular DBA (6 pose + scale) is fixed (SPEC §4).
+/// How the 7-DoF gauge of monocular DBA (6 pose + scale) is fixed (conventions §4).
 struct GaugeOptions {
   enum class Type {
     /// Gaussian prior on the two lowest-indexed keyframes that appear in `ii`, centred on their

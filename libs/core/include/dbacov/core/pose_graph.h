@@ -2,8 +2,8 @@
 //
 // Nodes are keyframes (id = keyframe index into the snapshots' `poses`), with camera-to-world
 // poses. An edge (from < to) is a relative-pose constraint Z ≈ T_from⁻¹ T_to with the information
-// (inverse covariance) of the tangent of Z in the SPEC §3 convention, which is also MRPT's
-// CNetworkOfPoses3DInf / optimize_graph_spa_levmarq convention (SPEC §6).
+// (inverse covariance) of the tangent of Z in the conventions §3 convention, which is also MRPT's
+// CNetworkOfPoses3DInf / optimize_graph_spa_levmarq convention (conventions §6).
 #pragma once
 
 #include <cstddef>
@@ -99,7 +99,7 @@ std::pair<double, double> poseGraphCostAndGradient(const PoseGraph& graph,
 PoseGraphOptimizerSummary optimizePoseGraph(PoseGraph& graph, const std::set<int>& fixed,
                                             const PoseGraphOptimizerOptions& options = {});
 
-/// Marginal covariances (SPEC §3 tangent) of the nodes of `graph` at its current poses: the
+/// Marginal covariances (conventions §3 tangent) of the nodes of `graph` at its current poses: the
 /// inverse of H = Σ_e Jᵀ Λ_e J with the `fixed` nodes removed (their covariance is zero), from the
 /// sparse solver. Throws NumericalError naming nodes when H is singular (a part of the graph that
 /// no fixed node reaches).

@@ -1,5 +1,5 @@
 // Reprojection statistics of a snapshot at its stored state: the check that poses, targets and
-// conventions fit together (SPEC §1: ~0.06 px on the shared DROID snapshot).
+// conventions fit together (conventions §1: ~0.06 px on the shared DROID snapshot).
 #pragma once
 
 #include <vector>

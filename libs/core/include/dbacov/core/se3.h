@@ -1,4 +1,4 @@
-// The one convention file for poses (SPEC §3).
+// The one convention file for poses (conventions §3).
 //
 // Frames:       T_wc maps camera coordinates to world coordinates (camera-to-world); T_cw =
 // T_wc^-1. Perturbation: on the right, T_true = T · Exp(ξ). Tangent:      ξ = [ρ; φ] ∈ R^6,
@@ -54,7 +54,7 @@ Matrix6d adSE3(const Vector6d& xi);
 /// (series to machine precision). Its inverse gives Log(Exp(ξ) Exp(δ)) ≈ ξ + Jr(ξ)⁻¹ δ.
 Matrix6d rightJacobianSE3(const Vector6d& xi);
 
-/// Relative pose Z = T_a^-1 T_b and the covariance of its tangent (SPEC §5):
+/// Relative pose Z = T_a^-1 T_b and the covariance of its tangent (conventions §5):
 /// δz ≈ δb − Ad(Z^-1) δa, so Σ_z = [−Ad(Z^-1)  I] Σ_ab [−Ad(Z^-1)  I]^T, with Σ_ab the 12×12 joint
 /// covariance of (ξ_a, ξ_b) (a first).
 Matrix6d relativeCovariance(const Eigen::Isometry3d& T_a, const Eigen::Isometry3d& T_b,

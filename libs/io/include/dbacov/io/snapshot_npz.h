@@ -1,4 +1,4 @@
-// DBA snapshots as `.npz` files (SPEC §1): loading with full shape checks, saving, listing.
+// DBA snapshots as `.npz` files (conventions §1): loading with full shape checks, saving, listing.
 //
 // loadSnapshotNpz accepts:
 //   poses        (N,7)       float32/float64   T_cw as [tx ty tz qx qy qz qw]
@@ -33,7 +33,7 @@ Snapshot loadSnapshotNpz(const std::string& path, std::int64_t index);
 Snapshot loadSnapshotNpzFromMemory(const std::string& name, std::vector<unsigned char> bytes,
                                    std::int64_t index);
 
-/// Writes `snapshot` to `path` atomically with the keys of SPEC §1: poses float64 (N,7); disps,
+/// Writes `snapshot` to `path` atomically with the keys of conventions §1: poses float64 (N,7); disps,
 /// intrinsics, target, weight float32; ii, jj int64 (E,); tstamp and (if present) timestamps_s
 /// float64 (N,); id (if present) int64 scalar (). Deflated when `compressed` (np.savez_compressed),
 /// else stored (np.savez). Note that the double-precision intrinsics are stored as float32.

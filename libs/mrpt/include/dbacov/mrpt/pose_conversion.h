@@ -1,4 +1,4 @@
-// The one conversion between dbacov's pose convention (SPEC §3) and MRPT's (SPEC §6).
+// The one conversion between dbacov's pose convention (conventions §3) and MRPT's (conventions §6).
 //
 // dbacov:  T_wc with right perturbation T_wc·Exp(ξ), ξ = [ρ; φ] (body frame).
 // MRPT:    CPose3DPDFGaussian over [x y z yaw pitch roll]: global position plus Z-Y-X Euler angles

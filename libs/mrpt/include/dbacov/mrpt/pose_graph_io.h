@@ -1,4 +1,4 @@
-// Pose graphs as MRPT objects and files (SPEC §6): CNetworkOfPoses3DInf, its binary
+// Pose graphs as MRPT objects and files (conventions §6): CNetworkOfPoses3DInf, its binary
 // serialization, and the VERTEX_SE3:QUAT / EDGE_SE3:QUAT text formats.
 //
 // Information layouts of an EDGE_SE3:QUAT line (21 upper-triangular values after the pose):

@@ -1,4 +1,4 @@
-// 3D scenes of keyframe poses and their covariances for MRPT viewers (SPEC §3, §6).
+// 3D scenes of keyframe poses and their covariances for MRPT viewers (conventions §3, §6).
 //
 // What buildScene() draws, and in which frame:
 //  - Display frame. All content lies in the world frame of the snapshots, inside one CSetOfObjects
@@ -48,7 +48,7 @@ namespace dbacov::mrpt_bridge {
 struct SceneKeyframe {
   std::string name;  ///< used in object names ("frustum <name>")
   Eigen::Isometry3d T_wc = Eigen::Isometry3d::Identity();
-  Matrix6d Sigma = Matrix6d::Zero();  ///< tangent covariance [ρ; φ] (SPEC §3); zero = fixed
+  Matrix6d Sigma = Matrix6d::Zero();  ///< tangent covariance [ρ; φ] (conventions §3); zero = fixed
   bool gauge = false;                 ///< a gauge keyframe: drawn in grey
 };
 

@@ -1,4 +1,4 @@
-// Offscreen pictures of scenes (SPEC §6) and the atomic scene and PNG files.
+// Offscreen pictures of scenes (conventions §6) and the atomic scene and PNG files.
 //
 // Rendering uses mrpt::opengl::CFBORender, which needs no X server: it creates an EGL context
 // through Mesa (Debian: libegl1 libegl-mesa0 libgl1-mesa-dri; scripts/setup.sh installs them).

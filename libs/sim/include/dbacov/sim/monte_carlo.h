@@ -1,4 +1,4 @@
-// Monte Carlo consistency runs of a simulated scenario (SPEC §7): N noise draws of one scenario,
+// Monte Carlo consistency runs of a simulated scenario (conventions §7): N noise draws of one scenario,
 // each snapshot solved and its covariances computed in-process, NEES against the truth.
 //
 // Samples of one solved snapshot:
@@ -8,7 +8,7 @@
 //             keyframe has 5 DoF.
 //   relative  every pair (a, b) of consecutive graph keyframes (PairSelection::Consecutive) or
 //             every co-visible pair (CoVisible, Snapshot::relativePairs): Z = T_a⁻¹ T_b,
-//             e = Log(Z_est⁻¹ Z_true) and the covariance of SPEC §5 from the 12×12 joint
+//             e = Log(Z_est⁻¹ Z_true) and the covariance of conventions §5 from the 12×12 joint
 //             marginal. A pair of two hard-fixed keyframes has no sample.
 // Labels: NeesSample::run = run · numSnapshots + snapshot (noise is independent across both),
 // group = "s<snapshot>/kf<k>" or "s<snapshot>/<a>-<b>" (the same quantity across runs).

@@ -4,14 +4,14 @@
 // Weights: per pixel and axis, w ~ Uniform[min, max], Beta(alpha, beta) rescaled to [min, max], or
 // a constant; a fraction `zero_fraction` of the pixels gets w = 0 on both axes (no information).
 // Noise: a target's error on each axis has variance 1/(weight_scale · w), the information the
-// covariance engine assigns to it (SPEC §2), so the marginal of every pixel is right by
+// covariance engine assigns to it (conventions §2), so the marginal of every pixel is right by
 // construction. Its structure within an edge is either
 //   White       independent across pixels: the engine's model holds exactly (consistent);
 //   Correlated  a stationary Gaussian random field per edge and axis with correlation
 //               ρ(Δ) = exp(−|Δ|² / (2 ℓ²)) between pixels Δ apart (ℓ = correlation_length_px),
 //               scaled pixel-wise by 1/sqrt(weight_scale · w). The engine still treats the pixels
 //               as independent, so its covariances are over-confident, like raw DROID confidences
-//               (SPEC §7).
+//               (conventions §7).
 // The field is white noise smoothed by a separable Gaussian kernel of standard deviation ℓ/√2 (the
 // autocorrelation of a Gaussian kernel of std s is a Gaussian of std s√2), computed on a padded
 // grid so that every pixel has full kernel support, and divided by the kernel's norm so that its

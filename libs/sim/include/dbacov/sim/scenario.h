@@ -21,7 +21,7 @@
 // poses; under the minimal gauge the first keyframe is true and the second starts at its true
 // distance from it. (A soft two-pose prior is centred at the truth and lets them move.)
 // The estimate is then expressed in the true frame and scale, which is what makes absolute NEES
-// meaningful (SPEC §7); DROID itself holds its oldest poses at their estimates instead.
+// meaningful (conventions §7); DROID itself holds its oldest poses at their estimates instead.
 //
 // Randomness: every stream is seeded from (seed, purpose, snapshot[, run]) so that a snapshot
 // depends only on the configuration, its index and the run: confidences are fixed by the
