@@ -82,7 +82,7 @@ TEST(CovarianceApp, RelativeCsvAndDepthSigmaMatchTheDenseReference) {
   ASSERT_EQ(r.code, 0) << r.err;
   DbaOptions o = DbaOptions::droid();
   o.weight_scale = 4;
-  SolverOptions dense;
+  CovarianceOptions dense;
   dense.kind = SolverKind::Dense;
   dense.depth_variances = true;
   const DbaCovariance ref(syn.snapshot, o, dense);

@@ -18,7 +18,8 @@
 #include "bench_problems.h"
 #include "ceres_problems.h"
 #include "dbacov/core/covariance.h"
-#include "dbacov/core/parallel.h"
+#include "dbacov/core/linearization.h"
+#include "dbacov/core/threads.h"
 
 namespace dbacov::bench {
 namespace {
@@ -80,7 +81,7 @@ void BM_DenseReduced(benchmark::State& state) {
   if (unavailable(state)) return;
   const ThreadLimit one(1);
   const Case& c = problem(static_cast<int>(state.range(0)));
-  SolverOptions so;
+  CovarianceOptions so;
   so.kind = SolverKind::Dense;
   double worst = 0;
   for (auto _ : state) {

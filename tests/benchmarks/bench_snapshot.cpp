@@ -12,7 +12,8 @@
 
 #include "bench_problems.h"
 #include "dbacov/core/covariance.h"
-#include "dbacov/core/parallel.h"
+#include "dbacov/core/linearization.h"
+#include "dbacov/core/threads.h"
 #include "flop_count.h"
 
 namespace dbacov::bench {
@@ -47,7 +48,7 @@ void BM_Linearize(benchmark::State& state) {
 void BM_Covariances(benchmark::State& state) {
   if (skipWithoutSharedSnapshot(state)) return;
   const ThreadLimit one(1);
-  SolverOptions so;
+  CovarianceOptions so;
   so.kind = state.range(0) ? SolverKind::Sparse : SolverKind::Dense;
   const DbaOptions o = DbaOptions::droid();
   for (auto _ : state) {

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <set>
 
+#include "dbacov/core/linearization.h"
 #include "dbacov/core/snapshot.h"
 
 namespace dbacov::bench {

@@ -1,4 +1,5 @@
-// Bit-for-bit comparison of two snapshots (every array and scalar of conventions §1), for round trips.
+// Bit-for-bit comparison of two snapshots (every array and scalar of conventions §1), for round
+// trips.
 #pragma once
 
 #include <gtest/gtest.h>

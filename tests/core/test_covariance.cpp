@@ -24,7 +24,7 @@ void expectMatchesDense(const Snapshot& s, const DbaOptions& o, double tol) {
   const testing::DenseReference ref = testing::denseReference(s, o);
   for (SolverKind kind : {SolverKind::Sparse, SolverKind::Dense}) {
     SCOPED_TRACE(kind == SolverKind::Sparse ? "sparse solver" : "dense solver");
-    SolverOptions so;
+    CovarianceOptions so;
     so.kind = kind;
     const DbaCovariance cov(s, o, so);
     ASSERT_EQ(cov.keyframes(), ref.keyframes);
@@ -187,7 +187,7 @@ TEST(Covariance, TwoKeyframesUnderAHardGaugeHaveZeroCovariance) {
   c.num_keyframes = 2;
   const auto syn = sim::generateSyntheticSnapshot(c);
   for (SolverKind kind : {SolverKind::Sparse, SolverKind::Dense}) {
-    SolverOptions so;
+    CovarianceOptions so;
     so.kind = kind;
     so.depth_variances = true;
     const DbaCovariance cov(syn.snapshot, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0), so);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/linearization.h"
 #include "dbacov/core/parallel.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "fixtures.h"

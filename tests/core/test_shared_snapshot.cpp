@@ -1,4 +1,5 @@
-// The real DROID-SLAM snapshot of ../shared/data (conventions §1): conventions, covariance properties.
+// The real DROID-SLAM snapshot of ../shared/data (conventions §1): conventions, covariance
+// properties.
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -26,7 +27,8 @@ TEST_F(SharedSnapshot, ReprojectionErrorAtStoredStateIsSubPixel) {
   DbaOptions o = DbaOptions::droid();
   const double med = weightedMedian(reprojectionErrors(snapshot_, o));
   EXPECT_LT(med, 0.1);
-  // The conventions matter: treating the poses as camera-to-world breaks the fit (conventions §1: ~13 px).
+  // The conventions matter: treating the poses as camera-to-world breaks the fit (conventions §1:
+  // ~13 px).
   Snapshot wrong = snapshot_;
   for (int k = 0; k < wrong.numKeyframes(); ++k) wrong.setT_wc(k, snapshot_.T_cw(k));
   o.min_depth_ratio.reset();

@@ -84,11 +84,11 @@ TEST(SparseSolver, JointBlocksAndOrderingsOnDbaGraphs) {
     const auto syn = sim::generateSyntheticSnapshot(graphConfig(seed, 7));
     DbaOptions o;
     o.weight_scale = 4;
-    SolverOptions dense_opt;
+    CovarianceOptions dense_opt;
     dense_opt.kind = SolverKind::Dense;
     const DbaCovariance ref(syn.snapshot, o, dense_opt);
     for (Ordering ord : {Ordering::Auto, Ordering::Amd, Ordering::Natural, Ordering::Metis}) {
-      SolverOptions so;
+      CovarianceOptions so;
       so.ordering = ord;
       const DbaCovariance cov(syn.snapshot, o, so);
       for (int a : cov.keyframes())
@@ -110,7 +110,7 @@ TEST(SparseSolver, DepthSigmaMatchesDenseFullInverse) {
     DbaOptions o;
     o.weight_scale = 4;
     o.gauge.type = type;
-    SolverOptions so;
+    CovarianceOptions so;
     so.depth_variances = true;
     const DbaCovariance cov(syn.snapshot, o, so);
     const testing::DenseReference ref = testing::denseReference(syn.snapshot, o);

@@ -182,7 +182,8 @@ dump('c_planar.pickle', planar(tx, ty)[None], planar(wx, wy), id=np.int64(11))
     expected.check(s, o.name);
     EXPECT_EQ(s.id, o.id) << o.name;
   }
-  // The dtypes of conventions §1, whatever the input held (float64 poses stay float64, as §1 allows).
+  // The dtypes of conventions §1, whatever the input held (float64 poses stay float64, as §1
+  // allows).
   const io::NpzReader b(dir.file("out/b_channel_last.npz"));
   EXPECT_EQ(b.read("poses").dtype, io::NpyArray::DType::Float64);
   EXPECT_EQ(b.read("tstamp").dtype, io::NpyArray::DType::Float64);

@@ -15,8 +15,8 @@
 
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/errors.h"
-#include "dbacov/core/parallel.h"
 #include "dbacov/core/snapshot.h"
+#include "dbacov/core/threads.h"
 
 namespace dbacov::fuzz {
 

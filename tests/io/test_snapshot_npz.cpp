@@ -1,5 +1,5 @@
-// Snapshot files (conventions §1): the real DROID snapshot in ../shared/data, checked against NumPy;
-// shape/dtype/missing-key errors; save → load round trips that NumPy can read.
+// Snapshot files (conventions §1): the real DROID snapshot in ../shared/data, checked against
+// NumPy; shape/dtype/missing-key errors; save → load round trips that NumPy can read.
 #include <cmath>
 #include <filesystem>
 #include <fstream>

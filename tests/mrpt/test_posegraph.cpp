@@ -178,7 +178,8 @@ Matrix6d randomInformation(std::mt19937& rng) {
   return 0.5 * (I + I.transpose());
 }
 
-/// The optimum of a small graph by our own Gauss-Newton with the conventions §3 residuals (node 0 fixed).
+/// The optimum of a small graph by our own Gauss-Newton with the conventions §3 residuals (node 0
+/// fixed).
 std::map<int, Eigen::Isometry3d> referenceOptimum(PoseGraph g) {
   for (int it = 0; it < 100; ++it) {
     const int n = static_cast<int>(g.nodes.size()) - 1;

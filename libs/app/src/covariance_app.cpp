@@ -1,19 +1,16 @@
 #include "dbacov/app/covariance_app.h"
 
-#include <fstream>
 #include <memory>
 
 #include <CLI/CLI.hpp>
 
 #include "cli_common.h"
-#include "dbacov/app/outputs.h"
 #include "dbacov/app/pipeline.h"
 #include "dbacov/app/progress.h"
-#include "dbacov/app/run_summary.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/covariance.h"
-#include "dbacov/core/parallel.h"
-#include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/core/threads.h"
+#include "engine_cli.h"
 #include "visual_cli.h"
 
 namespace dbacov::app {
@@ -58,51 +55,12 @@ F failed: K invalid input (files...), K numerical (file: reason), K output (...)
 "; K outputs not written" when an output file could not be committed at the end.
 Exit status: 0 success, 1 when any snapshot or output failed, 2 on bad usage.)TXT";
 
-}  // namespace
+using Sinks = std::vector<std::unique_ptr<OutputSink>>;
 
-DbaOptions CovarianceAppOptions::engineOptions() const {
-  DbaOptions o = DbaOptions::preset(preset);
-  if (weight_scale) o.weight_scale = *weight_scale;
-  if (gauge) {
-    if (*gauge == "two-pose")
-      o.gauge.type = GaugeOptions::Type::TwoPose;
-    else if (*gauge == "minimal")
-      o.gauge.type = GaugeOptions::Type::Minimal;
-    else
-      throw std::invalid_argument("unknown gauge '" + *gauge + "', expected two-pose or minimal");
-  }
-  if (o.gauge.type == GaugeOptions::Type::Minimal) {
-    if (gauge_sigma_rot || gauge_sigma_trans)
-      throw std::invalid_argument(
-          "--gauge-sigma-rot/--gauge-sigma-trans apply to --gauge two-pose only");
-    o.gauge.sigma_rot = o.gauge.sigma_trans = 0;
-  }
-  if (gauge_sigma_rot) o.gauge.sigma_rot = *gauge_sigma_rot;
-  if (gauge_sigma_trans) o.gauge.sigma_trans = *gauge_sigma_trans;
-  if (near) o.near = *near;
-  if (far) o.far = *far;
-  if (min_depth_ratio) {
-    if (*min_depth_ratio == 0)
-      o.min_depth_ratio.reset();
-    else
-      o.min_depth_ratio = *min_depth_ratio;
-  }
-  o.validate();
-  return o;
-}
-
-SolverOptions CovarianceAppOptions::solverOptions() const {
-  SolverOptions so;
-  so.kind = solver == "dense" ? SolverKind::Dense : SolverKind::Sparse;
-  if (ordering == "amd") so.ordering = Ordering::Amd;
-  if (ordering == "metis") so.ordering = Ordering::Metis;
-  if (ordering == "nesdis") so.ordering = Ordering::Nesdis;
-  if (ordering == "natural") so.ordering = Ordering::Natural;
-  return so;
-}
-
-int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
-  CovarianceAppOptions opt;
+/// Stage 1: the command line into `opt`. Returns the exit status when the run is over (--help,
+/// bad usage), nothing when it goes on.
+std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+                         CovarianceAppOptions& opt) {
   CLI::App cli{"dba-covariance: marginal pose covariances from DROID-SLAM DBA snapshots",
                "dba-covariance"};
   detail::VisualCli visual;  // pictures: --scene, --snapshot, --plots (visual_cli.h)
@@ -115,10 +73,9 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   cli.add_option(
       "-o,--output", opt.rawlog_path,
       "Write a rawlog of CObservationRobotPose (CPose3DPDFGaussian) per emitted keyframe");
-  cli.add_option("--emit", opt.emit,
-                 "Keyframes in the rawlog: latest (newest of each snapshot), all, final (each "
-                 "once, from its last snapshot)")
-      ->check(CLI::IsMember({"latest", "all", "final"}));
+  detail::addEnumOption(cli, "--emit", opt.emit,
+                        "Keyframes in the rawlog: latest (newest of each snapshot), all, final "
+                        "(each once, from its last snapshot)");
   cli.add_option("--label", opt.label, "sensorLabel of the rawlog observations");
   cli.add_option("--fps", opt.fps,
                  "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
@@ -130,29 +87,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
                  "Write one row per (snapshot, keyframe pair): relative pose and covariance");
   cli.add_option("--depth-sigma", opt.depth_sigma_dir,
                  "Write per-pixel inverse-depth sigma maps (.npy) into this directory");
-  cli.add_option("--solver", opt.solver,
-                 "sparse (CHOLMOD, default) or dense (reference, small graphs)")
-      ->check(CLI::IsMember({"sparse", "dense"}));
-  cli.add_option("--ordering", opt.ordering,
-                 "Fill-reducing ordering of the sparse solver: auto, amd, metis, nesdis, natural")
-      ->check(CLI::IsMember({"auto", "amd", "metis", "nesdis", "natural"}));
-  cli.add_option("--preset", opt.preset, "Engine preset: droid (default) or paper")
-      ->check(CLI::IsMember({"droid", "paper"}));
-  cli.add_option("--weight-scale", opt.weight_scale,
-                 "Information per unit confidence, px^-2 (droid 0.001, paper 0.1)");
-  cli.add_option(
-         "--gauge", opt.gauge,
-         "two-pose (priors on the first two keyframes of ii) or minimal (first fixed + scale)")
-      ->check(CLI::IsMember({"two-pose", "minimal"}));
-  cli.add_option("--gauge-sigma-rot", opt.gauge_sigma_rot,
-                 "two-pose prior sigma of rotation, rad (0 = hard fix)");
-  cli.add_option("--gauge-sigma-trans", opt.gauge_sigma_trans,
-                 "two-pose prior sigma of translation (0 = hard fix)");
-  cli.add_option("--near", opt.near,
-                 "Keep a pixel only if d < 1/near and its depth in frame j > near");
-  cli.add_option("--far", opt.far, "Keep a pixel only if d > 1/far");
-  cli.add_option("--min-depth-ratio", opt.min_depth_ratio,
-                 "Drop a pixel when z_j*d is below this (droid 0.25; 0 = off)");
+  detail::addCovarianceOptions(cli, opt.covariance);
+  detail::addEngineOptions(cli, opt.engine);
   cli.add_option(
          "--threads", opt.threads,
          "Threads for independent snapshots and for each snapshot's linearization (0 = all cores)")
@@ -161,138 +97,203 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   bool fail_fast = false;
   detail::addFailurePolicyOptions(cli, fail_fast);
   detail::addVisualOptions(cli, visual);
-
-  DbaOptions engine;
   try {
     cli.parse(argc, argv);
-    engine = opt.engineOptions();
+    opt.engine.resolve();  // refuses invalid and contradicting engine options as bad usage
     detail::finishVisualOptions(visual);
-    if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
-        opt.rawlog_path.empty() && opt.graph_prefix.empty() && !visual.any())
+    opt.scene = visual.scene;
+    opt.plots_dir = visual.plots_dir;
+    opt.policy = fail_fast ? FailurePolicy::FailFast : FailurePolicy::KeepGoing;
+    if (!opt.anyOutput())
       throw std::invalid_argument(
           "no output requested: give -o, --csv, --relative-csv, "
           "--depth-sigma, --graph, --scene, --snapshot or --plots");
   } catch (...) {
     return detail::usageExitStatus(cli, "dba-covariance", out, err);
   }
+  return std::nullopt;
+}
 
-  RunSummary sum;
-  const FailurePolicy policy = fail_fast ? FailurePolicy::FailFast : FailurePolicy::KeepGoing;
+/// Stage 2: one sink per requested output, the slowest (pictures) last. Throws InputError when an
+/// output cannot be created.
+Sinks makeSinks(const CovarianceAppOptions& opt, GraphSink** graph) {
+  Sinks sinks;
+  if (!opt.csv_path.empty()) sinks.push_back(std::make_unique<KeyframeCsvSink>(opt.csv_path));
+  if (!opt.relative_csv_path.empty())
+    sinks.push_back(std::make_unique<RelativeCsvSink>(opt.relative_csv_path));
+  if (!opt.depth_sigma_dir.empty())
+    sinks.push_back(std::make_unique<DepthSigmaSink>(opt.depth_sigma_dir));
+  if (!opt.graph_prefix.empty()) {
+    auto g = std::make_unique<GraphSink>(opt.graph_prefix);
+    *graph = g.get();
+    sinks.push_back(std::move(g));
+  }
+  if (!opt.rawlog_path.empty())
+    sinks.push_back(std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.label, opt.emit));
+  detail::VisualCli visual;
+  visual.scene = opt.scene;
+  visual.plots_dir = opt.plots_dir;
+  detail::appendVisualSinks(sinks, visual);  // last: their commit renders (slowest)
+  return sinks;
+}
+
+/// Stages 3 and 4 with their shared state: the summary, the outputs given up after a write
+/// failure and the failure reports.
+class Run {
+ public:
+  Run(const CovarianceAppOptions& opt, Sinks sinks, std::ostream& err)
+      : opt_(opt), sinks_(std::move(sinks)), broken_(sinks_.size(), false), err_(err) {}
+
+  /// Stage 3: snapshots are independent: computed in parallel, handed to the sinks in order.
+  void pipeline(const SnapshotInputs& inputs, const DbaOptions& engine) {
+    CovarianceOptions covariance = opt_.covariance;
+    for (const auto& sink : sinks_) covariance.depth_variances |= sink->needsDepthVariances();
+    Progress progress(err_, inputs.knownCount(), !opt_.quiet);
+    progress_ = &progress;
+    SnapshotStream stream(inputs);
+    runSnapshotPipeline(
+        stream, 2 * std::max<std::size_t>(1, currentThreadLimit()),
+        [&](PipelineItem& item) { compute(item, engine, covariance); },
+        [&](PipelineItem& item) { return consume(item); });
+    progress.clear();
+    progress_ = nullptr;
+  }
+
+  /// Stage 4: after a --fail-fast stop nothing is committed: the sinks are destroyed uncommitted
+  /// and no output appears. Otherwise every output is committed, even when another one fails
+  /// (under --fail-fast the first failed output stops the others).
+  void commit(const GraphSink* graph) {
+    if (opt_.policy == FailurePolicy::FailFast && sum_.failed() != 0) return;
+    for (std::size_t i = 0; i < sinks_.size(); ++i) {
+      if (broken_[i]) {  // reported when it failed
+        sum_.outputNotWritten();
+        continue;
+      }
+      try {
+        sinks_[i]->commit();
+      } catch (const std::exception& e) {
+        err_ << "dba-covariance: error: " << e.what() << '\n';
+        sum_.outputNotWritten();
+        if (opt_.policy == FailurePolicy::FailFast) break;
+      }
+    }
+    if (graph && graph->uninformativePairs() && !opt_.quiet)
+      err_ << "dba-covariance: note: " << graph->uninformativePairs()
+           << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative "
+              "pose\n";
+  }
+
+  /// The summary line and the exit status.
+  int finish() {
+    if (!opt_.quiet) {
+      err_ << "dba-covariance: " << sum_.line();
+      if (opt_.policy == FailurePolicy::FailFast && sum_.failed())
+        err_ << "; --fail-fast: stopped at the first failure, no output written";
+      err_ << '\n';
+    }
+    return sum_.failed() || sum_.outputsNotWritten() ? 1 : 0;
+  }
+
+ private:
+  static std::string name(const Snapshot& s) {
+    return s.source + " (snapshot " + std::to_string(s.label()) + ")";
+  }
+
+  /// On a worker thread: the covariances, checked by every sink before any sink takes them.
+  void compute(PipelineItem& item, const DbaOptions& engine,
+               const CovarianceOptions& covariance) const {
+    Snapshot& s = item.input.snapshot;
+    try {
+      if (opt_.fps) deriveKeyframeTimes(s, *opt_.fps);
+      for (const auto& sink : sinks_) sink->check(s);
+      auto cov = std::make_unique<DbaCovariance>(s, engine, covariance);
+      for (const auto& sink : sinks_) sink->verify(s, *cov);
+      item.cov = std::move(cov);
+    } catch (const std::exception& e) {
+      item.error = e.what();
+      item.error_kind = classifyFailure(e, false);
+    }
+  }
+
+  /// In input order: the results into every sink. Returns whether the run goes on.
+  bool consume(PipelineItem& item) {
+    ++sum_.read;
+    if (!item.input.ok())
+      return report(item.input.kind, item.input.source, item.input.error, item.input.error);
+    const Snapshot& s = item.input.snapshot;
+    progress_->step(s.source);
+    if (!item.cov)
+      return report(item.error_kind, s.source, name(s) + ": " + item.error, item.error);
+    // Results are verified, so add() fails only when an output cannot be written (disk full):
+    // that output is given up (reported once, not committed) and the others go on.
+    bool added = true;
+    for (std::size_t i = 0; i < sinks_.size(); ++i) {
+      if (broken_[i]) continue;
+      try {
+        sinks_[i]->add(s, *item.cov);
+      } catch (const std::exception& e) {
+        broken_[i] = true;
+        added = false;
+        if (!report(classifyFailure(e, true), s.source, name(s) + ": " + e.what(), e.what()))
+          return false;
+      }
+    }
+    if (added) ++sum_.processed;
+    return true;
+  }
+
+  /// `what` is the whole message (it names the file/snapshot), `reason` the error alone. Returns
+  /// whether the run goes on (false under --fail-fast).
+  bool report(FailureKind kind, const std::string& source, const std::string& what,
+              const std::string& reason) {
+    if (progress_) progress_->clear();
+    err_ << "dba-covariance: error: " << what << '\n';
+    sum_.fail(kind, source, reason);
+    return opt_.policy == FailurePolicy::KeepGoing;
+  }
+
+  const CovarianceAppOptions& opt_;
+  Sinks sinks_;
+  std::vector<bool> broken_;  ///< outputs given up after a write failure
+  std::ostream& err_;
+  Progress* progress_ = nullptr;
+  RunSummary sum_;
+};
+
+}  // namespace
+
+bool CovarianceAppOptions::anyOutput() const {
+  return !csv_path.empty() || !relative_csv_path.empty() || !depth_sigma_dir.empty() ||
+         !rawlog_path.empty() || !graph_prefix.empty() || scene.enabled() || !plots_dir.empty();
+}
+
+int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
+  DbaOptions engine;
+  try {
+    engine = opt.engine.resolve();
+    opt.scene.validate();
+  } catch (const std::exception& e) {
+    err << "dba-covariance: " << e.what() << '\n';
+    return 2;
+  }
   const ThreadLimit thread_limit(opt.threads);
   try {
     const SnapshotInputs inputs(opt.inputs);
-    std::vector<std::unique_ptr<OutputSink>> sinks;
-    if (!opt.csv_path.empty()) sinks.push_back(std::make_unique<KeyframeCsvSink>(opt.csv_path));
-    if (!opt.relative_csv_path.empty())
-      sinks.push_back(std::make_unique<RelativeCsvSink>(opt.relative_csv_path));
-    if (!opt.depth_sigma_dir.empty())
-      sinks.push_back(std::make_unique<DepthSigmaSink>(opt.depth_sigma_dir));
     GraphSink* graph = nullptr;
-    if (!opt.graph_prefix.empty()) {
-      auto g = std::make_unique<GraphSink>(opt.graph_prefix);
-      graph = g.get();
-      sinks.push_back(std::move(g));
-    }
-    if (!opt.rawlog_path.empty())
-      sinks.push_back(
-          std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.label, parseEmitMode(opt.emit)));
-    detail::appendVisualSinks(sinks, visual);  // last: their commit renders (slowest)
-    SolverOptions solver = opt.solverOptions();
-    for (const auto& sink : sinks) solver.depth_variances |= sink->needsDepthVariances();
-    std::vector<bool> broken(sinks.size(), false);  ///< outputs given up after a write failure
-
-    Progress progress(err, inputs.knownCount(), !opt.quiet);
-    // `what` is the whole message (it names the file/snapshot), `reason` the error alone.
-    // Returns whether the run goes on (false under --fail-fast).
-    auto report = [&](FailureKind kind, const std::string& source, const std::string& what,
-                      const std::string& reason) {
-      progress.clear();
-      err << "dba-covariance: error: " << what << '\n';
-      sum.fail(kind, source, reason);
-      return policy == FailurePolicy::KeepGoing;
-    };
-    // Snapshots are independent: compute them in parallel, hand the results to the sinks in order.
-    SnapshotStream stream(inputs);
-    auto name = [](const Snapshot& s) {
-      return s.source + " (snapshot " + std::to_string(s.label()) + ")";
-    };
-    {
-      runSnapshotPipeline(
-          stream, 2 * std::max<std::size_t>(1, currentThreadLimit()),
-          [&](PipelineItem& item) {
-            Snapshot& s = item.input.snapshot;
-            try {
-              if (opt.fps) deriveKeyframeTimes(s, *opt.fps);
-              for (const auto& sink : sinks) sink->check(s);
-              auto cov = std::make_unique<DbaCovariance>(s, engine, solver);
-              for (const auto& sink : sinks) sink->verify(s, *cov);
-              item.cov = std::move(cov);
-            } catch (const std::exception& e) {
-              item.error = e.what();
-              item.error_kind = classifyFailure(e, false);
-            }
-          },
-          [&](PipelineItem& item) {
-            ++sum.read;
-            if (!item.input.ok())
-              return report(item.input.kind, item.input.source, item.input.error, item.input.error);
-            const Snapshot& s = item.input.snapshot;
-            progress.step(s.source);
-            if (!item.cov)
-              return report(item.error_kind, s.source, name(s) + ": " + item.error, item.error);
-            // Results are verified, so add() fails only when an output cannot be written (disk
-            // full): that output is given up (reported once, not committed) and the others go on.
-            bool added = true;
-            for (std::size_t i = 0; i < sinks.size(); ++i) {
-              if (broken[i]) continue;
-              try {
-                sinks[i]->add(s, *item.cov);
-              } catch (const std::exception& e) {
-                broken[i] = true;
-                added = false;
-                if (!report(classifyFailure(e, true), s.source, name(s) + ": " + e.what(),
-                            e.what()))
-                  return false;
-              }
-            }
-            if (added) ++sum.processed;
-            return true;
-          });
-    }
-    progress.clear();
-    // After a --fail-fast stop nothing is committed: the sinks are destroyed uncommitted and no
-    // output appears. Otherwise every output is committed, even when another one fails (under
-    // --fail-fast the first failed output stops the others).
-    if (policy == FailurePolicy::KeepGoing || sum.failed() == 0) {
-      for (std::size_t i = 0; i < sinks.size(); ++i) {
-        if (broken[i]) {  // reported when it failed
-          sum.outputNotWritten();
-          continue;
-        }
-        try {
-          sinks[i]->commit();
-        } catch (const std::exception& e) {
-          err << "dba-covariance: error: " << e.what() << '\n';
-          sum.outputNotWritten();
-          if (policy == FailurePolicy::FailFast) break;
-        }
-      }
-      if (graph && graph->uninformativePairs() && !opt.quiet)
-        err << "dba-covariance: note: " << graph->uninformativePairs()
-            << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative "
-               "pose\n";
-    }
+    Run run(opt, makeSinks(opt, &graph), err);
+    run.pipeline(inputs, engine);
+    run.commit(graph);
+    return run.finish();
   } catch (const std::exception& e) {
     err << "dba-covariance: error: " << e.what() << '\n';
     return 1;
   }
-  if (!opt.quiet) {
-    err << "dba-covariance: " << sum.line();
-    if (policy == FailurePolicy::FailFast && sum.failed())
-      err << "; --fail-fast: stopped at the first failure, no output written";
-    err << '\n';
-  }
-  return sum.failed() || sum.outputsNotWritten() ? 1 : 0;
+}
+
+int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+  CovarianceAppOptions opt;
+  if (const auto status = parse(argc, argv, out, err, opt)) return *status;
+  return runCovariance(opt, err);
 }
 
 }  // namespace dbacov::app

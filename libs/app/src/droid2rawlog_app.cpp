@@ -9,8 +9,7 @@
 #include "dbacov/app/run_summary.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/reprojection.h"
-#include "dbacov/mrpt/observation_dba_snapshot.h"
-#include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/mrpt/bridge.h"
 
 namespace dbacov::app {
 namespace {
@@ -97,27 +96,26 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
       return sum.failed() ? 1 : 0;
     }
     const SnapshotInputs in(inputs);
-    mrpt_bridge::RawlogWriter writer(output);
+    const auto writer = mrpt_bridge::mrptBridge().createSnapshotRawlog(output);
     in.forEach(
         [&](Snapshot& s) {
           ++sum.read;
-          CObservationDbaSnapshot obs;
+          double time = 0;
           try {
             if (fps) deriveKeyframeTimes(s, *fps);
-            obs.timestamp = mrpt::Clock::fromDouble(keyframeTime(s, newestKeyframe(s)));
+            time = keyframeTime(s, newestKeyframe(s));
           } catch (const std::exception& e) {
             return report(classifyFailure(e, false), s.source,
                           s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what());
           }
-          obs.sensorLabel = label;
-          obs.snapshot = std::move(s);
-          writer.write(obs);  // a write error ends the run: the rawlog would be damaged
+          // A write error ends the run: the rawlog would be damaged.
+          writer->write(std::move(s), time, label);
           ++sum.processed;
           return true;
         },
         on_error);
     // After a --fail-fast stop the writer is destroyed uncommitted: the output does not appear.
-    if (!fail_fast || sum.failed() == 0) writer.commit();
+    if (!fail_fast || sum.failed() == 0) writer->commit();
   } catch (const std::exception& e) {
     err << "droid2rawlog: error: " << e.what() << '\n';
     return 1;

@@ -47,19 +47,12 @@ Monte Carlo: --monte-carlo N simulates every snapshot of the scenario N times (n
 Exit status: 0 success, 1 when an input or output failed or nothing could be evaluated, 2 on bad
 usage.)";
 
-struct EvaluateOptions {
-  std::string csv, relative_csv, rawlog, rawlog_label, gt,
-      gt_format = "auto", image_times, align = "none", pairs = "consecutive", json, samples_csv;
-  std::vector<double> body_to_camera;
-  double time_tolerance = 1e-3, max_gap = 0.1;
-  int monte_carlo = 0, first_run = 0, calibration_runs = 0;
-  bool calibrate = false, quiet = false;
-  std::optional<double> inflation;
-  ScenarioOptions scenario;
-};
-
 /// Checks the combination of options; throws std::invalid_argument with the reason.
 void checkUsage(const EvaluateOptions& o) {
+  if (o.calibrate && o.inflation)
+    throw std::invalid_argument("give either --calibrate or --inflation");
+  if (o.calibration_runs > 0 && o.inflation)
+    throw std::invalid_argument("give either --calibration-runs or --inflation");
   const bool files = !o.csv.empty() || !o.relative_csv.empty() || !o.rawlog.empty();
   if (o.monte_carlo > 0) {
     if (files || !o.gt.empty())
@@ -159,10 +152,77 @@ std::vector<NeesSample> fitSet(const std::vector<ReportSection>& sections,
   return {};
 }
 
-}  // namespace
+/// Fits or applies the variance inflation (--calibrate, --calibration-runs, --inflation) on the
+/// sections; nothing when none is asked for.
+std::optional<Calibration> calibration(const EvaluateOptions& o,
+                                       const std::vector<ReportSection>& sections,
+                                       double weight_scale, const std::string& fit_prefix,
+                                       const std::string& fit_runs) {
+  if (!(o.calibrate || o.calibration_runs > 0 || o.inflation)) return std::nullopt;
+  Calibration cal;
+  cal.weight_scale = weight_scale;
+  if (o.inflation) {
+    cal.k = *o.inflation;
+    cal.fitted = false;
+    return cal;
+  }
+  std::string name;
+  const auto set = fitSet(sections, fit_prefix, &name);
+  if (set.empty()) throw NumericalError("no sample to fit the variance inflation on", {});
+  cal.k = fitInflation(set);
+  cal.fit_samples = set.size();
+  cal.fitted_on = fit_runs.empty() ? name : name + " of " + fit_runs;
+  return cal;
+}
 
-int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
-  EvaluateOptions o;
+/// The Monte Carlo sections: held-out evaluation runs and, with --calibration-runs M, the M
+/// calibration runs before them.
+std::vector<ReportSection> monteCarloSections(const EvaluateOptions& o,
+                                              const sim::ScenarioConfig& config, std::ostream& err,
+                                              std::optional<Calibration>* cal) {
+  const sim::Scenario sc(config);
+  const DbaOptions engine = config.engineOptions();
+  const auto pairs =
+      o.pairs == "all" ? sim::PairSelection::CoVisible : sim::PairSelection::Consecutive;
+  const int total = o.monte_carlo * sc.numSnapshots();
+  Progress progress(err, static_cast<std::size_t>(total), !o.quiet);
+  auto step = [&](int, int) { progress.step("Monte Carlo"); };
+  const std::string gauge = toString(config.gauge.type);
+  const int M = o.calibration_runs, first = o.first_run;
+  auto describe = [&](int a, int b) {
+    return "runs " + std::to_string(a) + ".." + std::to_string(b - 1);
+  };
+  const sim::MonteCarloResult eval =
+      sim::runMonteCarlo(sc, first + M, o.monte_carlo - M, engine, pairs, step);
+  std::optional<sim::MonteCarloResult> fit;
+  if (M > 0) fit = sim::runMonteCarlo(sc, first, M, engine, pairs, step);
+  progress.clear();
+  const int bad = eval.not_converged + (fit ? fit->not_converged : 0);
+  if (bad) err << "dba-evaluate: warning: " << bad << " DBA solves did not converge\n";
+  const std::string held = M > 0 ? "held-out " : "";
+  const std::string what =
+      " (" + describe(first + M, first + o.monte_carlo) + ", gauge " + gauge + " at the truth)";
+  std::vector<ReportSection> sections;
+  if (fit)
+    sections.push_back({"calibration_relative",
+                        "calibration set: relative NEES (" + describe(first, first + M) + ")",
+                        fit->samples.relative});
+  sections.push_back({"absolute", held + "absolute NEES" + what, eval.samples.absolute});
+  sections.push_back({"relative",
+                      held + "relative NEES, " +
+                          (pairs == sim::PairSelection::Consecutive ? "consecutive keyframes"
+                                                                    : "co-visible pairs") +
+                          what,
+                      eval.samples.relative});
+  *cal = calibration(o, sections, config.weight_scale, M > 0 ? "calibration_" : "",
+                     M > 0 ? describe(first, first + M) : describe(first, first + o.monte_carlo));
+  return sections;
+}
+
+/// Stage 1: the command line into `o` (and the scenario of --monte-carlo into `config`).
+/// Returns the exit status when the run is over (--help, bad usage).
+std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+                         EvaluateOptions& o) {
   CLI::App cli{
       "dba-evaluate: consistency of DBA pose covariances against ground truth (NEES, coverage, "
       "calibration)",
@@ -219,92 +279,37 @@ int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::os
       ->description(
           "Weight scale of the covariances: Monte Carlo, the simulation's (default 4); files, the "
           "one dba-covariance used (default 0.001 = preset droid), for the calibrated value");
-  std::optional<sim::ScenarioConfig> config;
   try {
     cli.parse(argc, argv);
     checkUsage(o);
-    if (o.calibrate && o.inflation)
-      throw std::invalid_argument("give either --calibrate or --inflation");
-    if (o.calibration_runs > 0 && o.inflation)
-      throw std::invalid_argument("give either --calibration-runs or --inflation");
-    if (o.monte_carlo > 0) config = o.scenario.resolve();
   } catch (...) {
     return detail::usageExitStatus(cli, "dba-evaluate", out, err);
   }
+  return std::nullopt;
+}
 
+}  // namespace
+
+int runEvaluate(const EvaluateOptions& o, std::ostream& out, std::ostream& err) {
+  std::optional<sim::ScenarioConfig> config;
+  try {
+    checkUsage(o);
+    if (o.monte_carlo > 0) config = o.scenario.resolve();
+  } catch (const std::exception& e) {
+    err << "dba-evaluate: " << e.what() << "\nRun with --help for usage.\n";
+    return 2;
+  }
   bool failed = false;
   std::vector<ReportSection> sections;
   std::optional<Calibration> cal;
   try {
     if (config) {
-      const sim::Scenario sc(*config);
-      const DbaOptions engine = config->engineOptions();
-      const auto pairs =
-          o.pairs == "all" ? sim::PairSelection::CoVisible : sim::PairSelection::Consecutive;
-      const int total = o.monte_carlo * sc.numSnapshots();
-      Progress progress(err, static_cast<std::size_t>(total), !o.quiet);
-      auto step = [&](int, int) { progress.step("Monte Carlo"); };
-      const std::string gauge =
-          config->gauge.type == GaugeOptions::Type::Minimal ? "minimal" : "two-pose";
-      const int M = o.calibration_runs, first = o.first_run;
-      auto describe = [&](int a, int b) {
-        return "runs " + std::to_string(a) + ".." + std::to_string(b - 1);
-      };
-      const sim::MonteCarloResult eval =
-          sim::runMonteCarlo(sc, first + M, o.monte_carlo - M, engine, pairs, step);
-      std::optional<sim::MonteCarloResult> fit;
-      if (M > 0) fit = sim::runMonteCarlo(sc, first, M, engine, pairs, step);
-      progress.clear();
-      const int bad = eval.not_converged + (fit ? fit->not_converged : 0);
-      if (bad) err << "dba-evaluate: warning: " << bad << " DBA solves did not converge\n";
-      const std::string held = M > 0 ? "held-out " : "";
-      const std::string what =
-          " (" + describe(first + M, first + o.monte_carlo) + ", gauge " + gauge + " at the truth)";
-      if (fit)
-        sections.push_back({"calibration_relative",
-                            "calibration set: relative NEES (" + describe(first, first + M) + ")",
-                            fit->samples.relative});
-      sections.push_back({"absolute", held + "absolute NEES" + what, eval.samples.absolute});
-      sections.push_back({"relative",
-                          held + "relative NEES, " +
-                              (pairs == sim::PairSelection::Consecutive ? "consecutive keyframes"
-                                                                        : "co-visible pairs") +
-                              what,
-                          eval.samples.relative});
-      if (o.calibrate || M > 0 || o.inflation) {
-        cal = Calibration{};
-        cal->weight_scale = config->weight_scale;
-        if (o.inflation) {
-          cal->k = *o.inflation;
-          cal->fitted = false;
-        } else {
-          std::string name;
-          const auto set = fitSet(sections, M > 0 ? "calibration_" : "", &name);
-          if (set.empty()) throw NumericalError("no sample to fit the variance inflation on", {});
-          cal->k = fitInflation(set);
-          cal->fit_samples = set.size();
-          cal->fitted_on =
-              name + " of " +
-              (M > 0 ? describe(first, first + M) : describe(first, first + o.monte_carlo));
-        }
-      }
+      sections = monteCarloSections(o, *config, err, &cal);
     } else {
       sections = fileSections(o, err, &failed);
-      if (!failed && (o.calibrate || o.inflation)) {
-        cal = Calibration{};
-        cal->weight_scale = o.scenario.weight_scale.value_or(1e-3);
-        if (o.inflation) {
-          cal->k = *o.inflation;
-          cal->fitted = false;
-        } else {
-          std::string name;
-          const auto set = fitSet(sections, "", &name);
-          if (set.empty()) throw NumericalError("no sample to fit the variance inflation on", {});
-          cal->k = fitInflation(set);
-          cal->fit_samples = set.size();
-          cal->fitted_on = name;
-        }
-      }
+      if (!failed)
+        cal = calibration(o, sections,
+                          o.scenario.weight_scale.value_or(DbaOptions::kDroidWeightScale), "", "");
     }
     if (!failed) {
       printReport(out, sections, cal);
@@ -319,6 +324,12 @@ int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::os
     return 1;
   }
   return failed ? 1 : 0;
+}
+
+int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+  EvaluateOptions o;
+  if (const auto status = parse(argc, argv, out, err, o)) return *status;
+  return runEvaluate(o, out, err);
 }
 
 }  // namespace dbacov::app

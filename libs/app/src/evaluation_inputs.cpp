@@ -8,12 +8,8 @@
 #include <map>
 #include <sstream>
 
-#include <mrpt/obs/CObservationRobotPose.h>
-#include <mrpt/obs/CSensoryFrame.h>
-
 #include "dbacov/core/errors.h"
-#include "dbacov/mrpt/pose_conversion.h"
-#include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/mrpt/bridge.h"
 
 namespace dbacov::app {
 namespace {
@@ -255,39 +251,14 @@ std::vector<RelativeCovarianceRow> readRelativeCsv(const std::string& path) {
 }
 
 std::vector<RawlogPoseRow> readPoseRawlog(const std::string& path, const std::string& label) {
-  mrpt_bridge::RawlogReader reader(path);
   std::vector<RawlogPoseRow> rows;
-  auto handle = [&](const mrpt::serialization::CSerializable::Ptr& obj, std::size_t entry) {
-    const auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservationRobotPose>(obj);
-    if (!obs || (!label.empty() && obs->sensorLabel != label)) return;
+  for (const mrpt_bridge::PoseRecord& p : mrpt_bridge::mrptBridge().readPoseRawlog(path, label)) {
     RawlogPoseRow r;
-    r.entry = entry;
-    r.t = mrpt::Clock::toDouble(obs->timestamp);
-    r.T_wc = mrpt_bridge::fromCPose3D(obs->pose.mean);
-    Matrix6d C;
-    for (int a = 0; a < 6; ++a)
-      for (int b = 0; b < 6; ++b) C(a, b) = obs->pose.cov(a, b);
-    Matrix6d J;
-    try {
-      J = mrpt_bridge::tangentToYprJacobian(r.T_wc);
-    } catch (const std::domain_error& e) {
-      throw InputError(path + ": entry " + std::to_string(entry) + ": " + e.what());
-    }
-    const Matrix6d Jinv = J.inverse();
-    r.Sigma = Jinv * C * Jinv.transpose();
-    r.Sigma = 0.5 * (r.Sigma + r.Sigma.transpose());
-    if (!r.Sigma.allFinite() || !r.T_wc.matrix().allFinite())
-      throw InputError(path + ": entry " + std::to_string(entry) +
-                       ": non-finite pose or covariance");
+    r.entry = p.entry;
+    r.t = p.time;
+    r.T_wc = p.T_wc;
+    r.Sigma = p.Sigma;
     rows.push_back(r);
-  };
-  for (auto obj = reader.next(); obj; obj = reader.next()) {
-    const std::size_t entry = reader.count() - 1;
-    if (auto sf = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(obj)) {
-      for (const auto& o : *sf) handle(o, entry);
-    } else {
-      handle(obj, entry);
-    }
   }
   return rows;
 }

@@ -10,11 +10,6 @@
 #include "dbacov/app/csv_format.h"
 #include "dbacov/core/criteria.h"
 #include "dbacov/io/npy.h"
-#include "dbacov/mrpt/pose_conversion.h"
-#include "dbacov/mrpt/pose_graph_io.h"
-#include "dbacov/mrpt/rawlog_io.h"
-
-#include <mrpt/obs/CObservationRobotPose.h>
 
 namespace dbacov::app {
 
@@ -115,15 +110,8 @@ void DepthSigmaSink::commit() {
   files_->commit();
 }
 
-EmitMode parseEmitMode(const std::string& name) {
-  if (name == "latest") return EmitMode::Latest;
-  if (name == "all") return EmitMode::All;
-  if (name == "final") return EmitMode::Final;
-  throw std::invalid_argument("unknown emit mode '" + name + "', expected latest, all or final");
-}
-
 PoseRawlogSink::PoseRawlogSink(const std::string& path, std::string label, EmitMode mode)
-    : writer_(std::make_unique<mrpt_bridge::RawlogWriter>(path)),
+    : writer_(mrpt_bridge::mrptBridge().createPoseRawlog(path)),
       label_(std::move(label)),
       mode_(mode) {}
 
@@ -138,33 +126,31 @@ std::vector<std::pair<int, PoseRawlogSink::Record>> PoseRawlogSink::records(
   std::vector<int> kfs = cov.keyframes();
   if (mode_ == EmitMode::Latest) kfs = {newestKeyframe(s)};
   std::vector<std::pair<int, Record>> out;
-  for (int k : kfs)  // toPoseGaussian throws std::domain_error at pitch ±90°
-    out.emplace_back(
-        k, Record{keyframeTime(s, k), mrpt_bridge::toPoseGaussian(cov.T_wc(k), cov.marginal(k))});
+  for (int k : kfs) {
+    Record r;
+    r.time = keyframeTime(s, k);
+    r.T_wc = cov.T_wc(k);
+    r.Sigma = cov.marginal(k);
+    r.label = label_;
+    out.emplace_back(k, std::move(r));
+  }
   return out;
 }
 
 void PoseRawlogSink::verify(const Snapshot& s, const DbaCovariance& cov) const {
-  records(s, cov);
+  // The conversion to MRPT's yaw/pitch/roll throws std::domain_error at pitch ±90°.
+  for (const auto& [k, r] : records(s, cov)) mrpt_bridge::mrptBridge().checkPoseRecord(r.T_wc);
 }
 
 void PoseRawlogSink::add(const Snapshot& s, const DbaCovariance& cov) {
-  // Every record is converted before the first is written: a keyframe that cannot be converted
-  // fails the snapshot without leaving part of it in the rawlog.
+  // verify() has checked that every record converts: a keyframe that cannot be converted fails
+  // the snapshot before any of its records reaches the rawlog.
   for (auto& [k, r] : records(s, cov)) {
     if (mode_ == EmitMode::Final)
       final_.insert_or_assign(s.tstamp[k], std::move(r));
     else
-      write(r);
+      writer_->write(r);
   }
-}
-
-void PoseRawlogSink::write(const Record& r) {
-  mrpt::obs::CObservationRobotPose obs;
-  obs.pose = r.pose;
-  obs.timestamp = mrpt::Clock::fromDouble(r.time);
-  obs.sensorLabel = label_;
-  writer_->write(obs);
 }
 
 void PoseRawlogSink::commit() {
@@ -173,7 +159,7 @@ void PoseRawlogSink::commit() {
     for (const auto& [tstamp, r] : final_) ordered.push_back(&r);
     std::stable_sort(ordered.begin(), ordered.end(),
                      [](const Record* a, const Record* b) { return a->time < b->time; });
-    for (const Record* r : ordered) write(*r);
+    for (const Record* r : ordered) writer_->write(*r);
   }
   writer_->commit();
 }
@@ -188,9 +174,7 @@ void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) {
 
 void GraphSink::commit() {
   const PoseGraph g = builder_.graph();
-  mrpt_bridge::writeGraphBinary(prefix_ + ".graphbin", g);
-  mrpt_bridge::writeGraphText(prefix_ + ".graph", g, mrpt_bridge::GraphTextLayout::Mrpt258);
-  mrpt_bridge::writeGraphText(prefix_ + ".g2o", g, mrpt_bridge::GraphTextLayout::G2o);
+  mrpt_bridge::mrptBridge().writeGraphFiles(prefix_, g);
   io::writeFileAtomically(prefix_ + ".nodes.csv", [&](std::ostream& os) {
     os << "node,tstamp,time_s\n";
     for (const auto& [id, T] : g.nodes) {

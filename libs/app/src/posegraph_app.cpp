@@ -4,18 +4,13 @@
 #include <fstream>
 #include <sstream>
 
-#include <mrpt/graphslam/levmarq.h>
-#include <mrpt/obs/CObservationRobotPose.h>
 #include <CLI/CLI.hpp>
 
 #include "cli_common.h"
 #include "dbacov/app/csv_format.h"
 #include "dbacov/app/extra_constraints.h"
 #include "dbacov/io/atomic_file.h"
-#include "dbacov/mrpt/mrpt_errors.h"
-#include "dbacov/mrpt/pose_conversion.h"
-#include "dbacov/mrpt/pose_graph_io.h"
-#include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/mrpt/bridge.h"
 
 namespace dbacov::app {
 namespace {
@@ -28,9 +23,9 @@ PoseGraph loadGraph(const std::string& path) {
   const std::string ext = fs::path(path).extension().string();
   PoseGraph g;
   if (ext == ".graphbin")
-    g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(path));
+    g = mrpt_bridge::mrptBridge().readGraph(path, false);
   else if (ext == ".graph")
-    g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(path));
+    g = mrpt_bridge::mrptBridge().readGraph(path, true);
   else
     throw std::invalid_argument(path +
                                 ": expected a .graphbin (exact) or .graph (MRPT text) file; "
@@ -172,20 +167,13 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
       for (PoseGraphEdge& e : g.edges) e.information.setIdentity();
     const std::size_t fused = fuseParallelEdges(g);
 
-    mrpt::graphs::CNetworkOfPoses3DInf net = mrpt_bridge::toNetwork(g);
-    net.root = *fixed.begin();
-    mrpt::graphslam::TResultInfoSpaLevMarq info;
-    mrpt::containers::yaml params;
-    params["max_iterations"] = max_iterations;
     const double initial_cost = poseGraphCostAndGradient(g, fixed).first;
+    mrpt_bridge::LevmarqResult info;
     try {
-      mrpt::graphslam::optimize_graph_spa_levmarq(net, info, nullptr, params);
-    } catch (const std::exception& e) {
-      throw NumericalError(
-          graph_path + ": MRPT's optimizer failed: " + mrpt_bridge::conciseMrptMessage(e.what()),
-          {});
+      info = mrpt_bridge::mrptBridge().optimizeLevmarq(g, *fixed.begin(), max_iterations);
+    } catch (const NumericalError& e) {
+      throw NumericalError(graph_path + ": " + e.what(), {});
     }
-    for (auto& [id, T] : g.nodes) T = mrpt_bridge::fromCPose3D(net.nodes.at(id));
     const auto [mrpt_cost, mrpt_gradient] = poseGraphCostAndGradient(g, fixed);
     PoseGraphOptimizerSummary refine;
     if (!no_refine) {
@@ -198,15 +186,16 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
     if (!extra.absolute.empty()) g.nodes.erase(anchor);
 
     if (!rawlog_path.empty()) {
-      mrpt_bridge::RawlogWriter w(rawlog_path);
+      const auto w = mrpt_bridge::mrptBridge().createPoseRawlog(rawlog_path);
       for (const auto& [id, T] : g.nodes) {
-        mrpt::obs::CObservationRobotPose obs;
-        obs.pose = mrpt_bridge::toPoseGaussian(T, cov.at(id));
-        obs.timestamp = mrpt::Clock::fromDouble(nodeTime(g, id, nodes_path));
-        obs.sensorLabel = label;
-        w.write(obs);
+        mrpt_bridge::PoseRecord r;
+        r.T_wc = T;
+        r.Sigma = cov.at(id);
+        r.time = nodeTime(g, id, nodes_path);
+        r.label = label;
+        w->write(r);
       }
-      w.commit();
+      w->commit();
     }
     if (!tum_path.empty()) {
       io::writeFileAtomically(tum_path, [&](std::ostream& os) {
@@ -222,7 +211,7 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
       err << "dba-posegraph: " << g.nodes.size() << " nodes, " << g.edges.size() << " edges ("
           << extra.relative.size() << " extra, " << extra.absolute.size() << " absolute priors, "
           << fused << " merged into parallel edges); weighted cost " << initial_cost
-          << " -> MRPT levmarq (" << info.num_iters << " iterations) " << mrpt_cost
+          << " -> MRPT levmarq (" << info.iterations << " iterations) " << mrpt_cost
           << ", max gradient " << mrpt_gradient;
     if (!no_refine)
       err << " -> dbacov refinement (" << refine.iterations << " iterations) " << refine.final_cost

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include "dbacov/sim/scenario_json.h"
+#include "engine_cli.h"
 
 namespace dbacov::app {
 
@@ -66,13 +67,10 @@ void ScenarioOptions::add(CLI::App& cli) {
                  "Multiplies the target noise (1 = the variance 1/(weight_scale w) that the "
                  "confidences claim)")
       ->group(g);
-  cli.add_option("--weight-scale", weight_scale,
-                 "Information per unit confidence, px^-2 (default 4)")
-      ->check(CLI::PositiveNumber)
-      ->group(g);
+  detail::addWeightScaleOption(cli, weight_scale, "default 4")->group(g);
   cli.add_option("--gauge", gauge,
                  "Gauge of the solve, held at the truth: two-pose (hard) or minimal")
-      ->check(CLI::IsMember({"two-pose", "minimal"}))
+      ->check(CLI::IsMember(enumNames<GaugeOptions::Type>()))
       ->group(g);
   cli.add_option("--seed", seed, "Random seed of the scenario")->group(g);
   cli.add_option("--fps", fps, "Camera rate: keyframe time = start + tstamp / fps (tstamp = 3 k)")
@@ -118,9 +116,9 @@ sim::ScenarioConfig ScenarioOptions::resolve() const {
   if (correlation_length) c.noise.correlation_length_px = *correlation_length;
   if (noise_amplitude) c.noise.amplitude = *noise_amplitude;
   if (weight_scale) c.weight_scale = *weight_scale;
-  if (gauge) {
-    c.gauge.type = *gauge == "minimal" ? GaugeOptions::Type::Minimal : GaugeOptions::Type::TwoPose;
-    c.gauge.sigma_rot = c.gauge.sigma_trans = 0;
+  if (gauge) {  // the type only, as everywhere (DbaOptionOverrides): sigmas stay the config's
+    c.gauge.type = parseEnum<GaugeOptions::Type>(*gauge);
+    if (c.gauge.type == GaugeOptions::Type::Minimal) c.gauge.sigma_rot = c.gauge.sigma_trans = 0;
   }
   if (seed) c.seed = *seed;
   if (fps) c.time.fps = *fps;

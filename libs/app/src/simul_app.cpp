@@ -12,8 +12,7 @@
 #include "dbacov/app/scenario_options.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/io/snapshot_npz.h"
-#include "dbacov/mrpt/observation_dba_snapshot.h"
-#include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/mrpt/bridge.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/scenario_json.h"
 
@@ -83,8 +82,8 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
     if (ec || !std::filesystem::is_directory(out_dir))
       throw InputError(out_dir + ": cannot create the output directory" +
                        (ec ? ": " + ec.message() : ""));
-    std::unique_ptr<mrpt_bridge::RawlogWriter> rawlog;
-    if (!rawlog_path.empty()) rawlog = std::make_unique<mrpt_bridge::RawlogWriter>(rawlog_path);
+    std::unique_ptr<mrpt_bridge::SnapshotRawlogWriter> rawlog;
+    if (!rawlog_path.empty()) rawlog = mrpt_bridge::mrptBridge().createSnapshotRawlog(rawlog_path);
     Progress progress(err, sc.numSnapshots(), !quiet);
     for (int s = 0; s < sc.numSnapshots(); ++s) {
       char name[64];
@@ -101,12 +100,8 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
         }
         if (!no_npz) io::saveSnapshotNpz(out_dir + "/" + name, sim.snapshot);
         if (rawlog) {
-          CObservationDbaSnapshot obs;
-          obs.timestamp =
-              mrpt::Clock::fromDouble(keyframeTime(sim.snapshot, newestKeyframe(sim.snapshot)));
-          obs.sensorLabel = label;
-          obs.snapshot = std::move(sim.snapshot);
-          rawlog->write(obs);
+          const double time = keyframeTime(sim.snapshot, newestKeyframe(sim.snapshot));
+          rawlog->write(std::move(sim.snapshot), time, label);
         }
         ++written;
       } catch (const std::exception& e) {

@@ -4,7 +4,7 @@
 
 #include "dbacov/core/errors.h"
 #include "dbacov/io/snapshot_npz.h"
-#include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/mrpt/bridge.h"
 
 namespace dbacov::app {
 namespace fs = std::filesystem;
@@ -99,7 +99,7 @@ bool SnapshotStream::next(SnapshotItem* item) {
     }
     try {
       if (!rawlog_) {
-        rawlog_ = std::make_unique<mrpt_bridge::RawlogSnapshotReader>(file, index_);
+        rawlog_ = mrpt_bridge::mrptBridge().openSnapshotRawlog(file, index_);
         rawlog_snapshots_ = 0;
       }
       if (rawlog_->next(&item->snapshot)) {

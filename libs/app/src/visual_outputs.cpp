@@ -9,8 +9,7 @@
 
 #include "dbacov/app/csv_format.h"
 #include "dbacov/io/atomic_file.h"
-#include "dbacov/mrpt/scene.h"
-#include "dbacov/mrpt/scene_render.h"
+#include "dbacov/mrpt/bridge.h"
 #include "gnuplot.h"
 #include "plots_internal.h"
 
@@ -67,9 +66,10 @@ SceneSink::SceneSink(SceneOutputOptions options) : options_(std::move(options)) 
   options_.validate();
   // Fail before any work when an output directory is not writable (the probes are discarded).
   if (!options_.scene_path.empty()) io::AtomicOutputFile probe(options_.scene_path);
+  painter_ = mrpt_bridge::mrptBridge().createScenePainter(options_.width, options_.height,
+                                                          !options_.png_path.empty());
   if (!options_.png_path.empty()) {
     io::AtomicOutputFile probe(options_.png_path);
-    renderer_ = std::make_unique<mrpt_bridge::SceneRenderer>(options_.width, options_.height);
     if (options_.every > 0) {
       const std::string dir = std::filesystem::path(options_.png_path).parent_path().string();
       frames_ = std::make_unique<io::DeferredFiles>(dir.empty() ? "." : dir);
@@ -139,16 +139,15 @@ void SceneSink::render(const std::string& headline, const std::string& png,
   style.exaggeration = options_.exaggeration;
   style.up = options_.upAxis();
   style.legend_px = std::max(12.0, options_.height / 48.0);
-  auto scene = mrpt_bridge::buildScene(c, style);
-  const mrpt_bridge::SceneView view =
-      mrpt_bridge::fitView(c, style, options_.width, options_.height);
-  mrpt_bridge::applyView(*scene, view);
-  if (!scene_path.empty()) mrpt_bridge::saveSceneFile(*scene, scene_path);
+  std::vector<unsigned char> picture = painter_->paint(c, style, scene_path, png);
   if (png.empty()) return;
-  if (frame)
-    frames_->add(png, mrpt_bridge::encodePng(renderer_->render(*scene, view), png));
-  else
-    renderer_->renderPng(*scene, view, png);
+  if (frame) {
+    frames_->add(png, std::move(picture));
+    return;
+  }
+  io::AtomicOutputFile file(png);
+  file.write(picture.data(), picture.size());
+  file.commit();
 }
 
 PlotsSink::PlotsSink(std::string dir) : dir_(std::move(dir)) {

@@ -1,12 +1,14 @@
 #include "dbacov/core/covariance.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
 
 #include "dbacov/core/gauge.h"
+#include "dbacov/core/linearization.h"
 #include "dbacov/core/marginal_solver.h"
 
 namespace dbacov {
@@ -18,6 +20,7 @@ struct DbaCovariance::Impl {
   std::vector<Eigen::Isometry3d> T_wc;  // per keyframe index (identity for keyframes not in graph)
   bool depth_variances = false;
   int H = 0, W = 0;
+  CovarianceSummary summary;
 
   int slot(int keyframe) const {
     if (keyframe < 0 || keyframe >= static_cast<int>(ne.slot_of.size()) || ne.slot_of[keyframe] < 0)
@@ -41,11 +44,17 @@ struct DbaCovariance::Impl {
 };
 
 DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
-                             const SolverOptions& so)
+                             const CovarianceOptions& so)
     : impl_(std::make_unique<Impl>()) {
+  using Clock = std::chrono::steady_clock;
+  auto seconds = [](Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+  };
   options.validate();
   Impl& m = *impl_;
+  const auto t0 = Clock::now();
   m.ne = linearizeDba(snapshot, options, so.depth_variances);
+  const auto t1 = Clock::now();
   // Values that pass validation can still overflow double precision in the factor (e.g. a
   // principal point of 1e154): refuse before the solver turns them into NaN covariances.
   for (int a = 0; a < m.ne.S.numSlots(); ++a)
@@ -66,6 +75,9 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   m.W = snapshot.W;
   m.gauge = makeGauge(options.gauge, snapshot, m.ne.keyframes);
   checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
+  const Eigen::SparseMatrix<double> S_reduced =
+      m.gauge.dim() > 0 ? reduceSystem(m.ne.S, m.gauge) : Eigen::SparseMatrix<double>();
+  const auto t2 = Clock::now();
   m.T_wc.assign(snapshot.numKeyframes(), Eigen::Isometry3d::Identity());
   for (int k : m.ne.keyframes) m.T_wc[k] = snapshot.T_wc(k);
 
@@ -80,7 +92,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   try {
     // A gauge that fixes every keyframe (two keyframes, hard two-pose gauge) leaves nothing free:
     // every covariance is zero and there is nothing to factorize.
-    if (m.gauge.dim() > 0) m.solver->factorize(reduceSystem(m.ne.S, m.gauge));
+    if (m.gauge.dim() > 0) m.solver->factorize(S_reduced);
   } catch (const FactorizationError& e) {
     std::vector<int> kf;
     if (e.column() >= 0) {
@@ -94,6 +106,18 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
             "a gauge that does not fix every DoF)",
         kf);
   }
+  const auto t3 = Clock::now();
+  CovarianceSummary& sum = m.summary;
+  sum.solver = m.solver->name();
+  sum.ordering = toString(so.ordering);
+  sum.keyframes = static_cast<int>(m.ne.keyframes.size());
+  sum.edges = snapshot.numEdges();
+  sum.free_dof = m.gauge.dim();
+  sum.factor_entries = m.gauge.dim() > 0 ? m.solver->factorEntries() : 0;
+  sum.linearization = m.ne.stats;
+  sum.seconds_linearize = seconds(t0, t1);
+  sum.seconds_gauge = seconds(t1, t2);
+  sum.seconds_factorize = seconds(t2, t3);
   // A finite, positive definite S so ill-conditioned that its inverse overflows.
   std::vector<int> overflow;
   for (int k : m.ne.keyframes)
@@ -156,7 +180,7 @@ std::vector<int> DbaCovariance::sourceKeyframes() const {
 std::vector<float> DbaCovariance::inverseDepthSigma(int k) const {
   const Impl& m = *impl_;
   if (!m.depth_variances)
-    throw std::logic_error("inverseDepthSigma needs SolverOptions::depth_variances");
+    throw std::logic_error("inverseDepthSigma needs CovarianceOptions::depth_variances");
   const int slot = m.slot(k);
   std::vector<float> sigma(static_cast<std::size_t>(m.H) * m.W,
                            std::numeric_limits<float>::quiet_NaN());
@@ -197,6 +221,10 @@ const Eigen::Isometry3d& DbaCovariance::T_wc(int k) const {
 
 const LinearizationStats& DbaCovariance::stats() const {
   return impl_->ne.stats;
+}
+
+const CovarianceSummary& DbaCovariance::summary() const {
+  return impl_->summary;
 }
 
 }  // namespace dbacov

@@ -22,7 +22,8 @@ struct Camera {
   double fx, fy, cx, cy;
 };
 
-/// The pixel filters of conventions §2 (DbaOptions), as plain numbers: a non-positive value means "off".
+/// The pixel filters of conventions §2 (DbaOptions), as plain numbers: a non-positive value means
+/// "off".
 struct Filter {
   double weight_scale;
   double min_depth_ratio;  ///< keep Y2 >= this (≤ 0: only Y2 > 0)

@@ -21,10 +21,36 @@ DbaOptions DbaOptions::paper() {
   return o;
 }
 
+DbaOptions DbaOptions::preset(Preset preset) {
+  return preset == Preset::Paper ? paper() : droid();
+}
+
 DbaOptions DbaOptions::preset(const std::string& name) {
-  if (name == "droid") return droid();
-  if (name == "paper") return paper();
-  throw std::invalid_argument("unknown preset '" + name + "', expected 'droid' or 'paper'");
+  return preset(parseEnum<Preset>(name));
+}
+
+DbaOptions DbaOptionOverrides::resolve() const {
+  DbaOptions o = DbaOptions::preset(preset);
+  if (weight_scale) o.weight_scale = *weight_scale;
+  if (gauge) o.gauge.type = *gauge;
+  if (o.gauge.type == GaugeOptions::Type::Minimal) {
+    if (gauge_sigma_rot || gauge_sigma_trans)
+      throw std::invalid_argument(
+          "--gauge-sigma-rot/--gauge-sigma-trans apply to --gauge two-pose only");
+    o.gauge.sigma_rot = o.gauge.sigma_trans = 0;
+  }
+  if (gauge_sigma_rot) o.gauge.sigma_rot = *gauge_sigma_rot;
+  if (gauge_sigma_trans) o.gauge.sigma_trans = *gauge_sigma_trans;
+  if (near) o.near = *near;
+  if (far) o.far = *far;
+  if (min_depth_ratio) {
+    if (*min_depth_ratio == 0)
+      o.min_depth_ratio.reset();
+    else
+      o.min_depth_ratio = *min_depth_ratio;
+  }
+  o.validate();
+  return o;
 }
 
 void DbaOptions::validate() const {

@@ -1,4 +1,5 @@
-// Snapshot <-> .npz (conventions §1): every shape relation is checked here, values in Snapshot::validate.
+// Snapshot <-> .npz (conventions §1): every shape relation is checked here, values in
+// Snapshot::validate.
 #include "dbacov/io/snapshot_npz.h"
 
 #include <algorithm>
@@ -19,7 +20,8 @@ class SnapshotReader {
   std::string context(const std::string& key) const { return path_ + ": key '" + key + "'"; }
 
   NpyArray required(const std::string& key) const {
-    if (!npz_.has(key)) throw InputError(path_ + ": missing required key '" + key + "' (conventions §1)");
+    if (!npz_.has(key))
+      throw InputError(path_ + ": missing required key '" + key + "' (conventions §1)");
     return npz_.read(key);
   }
   std::optional<NpyArray> optional(const std::string& key) const {

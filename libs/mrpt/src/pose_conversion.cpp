@@ -52,4 +52,10 @@ mrpt::poses::CPose3DPDFGaussian toPoseGaussian(const Eigen::Isometry3d& T_wc,
   return mrpt::poses::CPose3DPDFGaussian(toCPose3D(T_wc), cov);
 }
 
+Matrix6d yprToTangentCovariance(const Eigen::Isometry3d& T_wc, const Matrix6d& Sigma_ypr) {
+  const Matrix6d Jinv = tangentToYprJacobian(T_wc).inverse();
+  Matrix6d Sigma = Jinv * Sigma_ypr * Jinv.transpose();
+  return 0.5 * (Sigma + Sigma.transpose());
+}
+
 }  // namespace dbacov::mrpt_bridge

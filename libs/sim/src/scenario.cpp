@@ -90,10 +90,14 @@ int ScenarioConfig::numSnapshots() const {
 }
 
 DbaOptions ScenarioConfig::engineOptions() const {
-  DbaOptions o = DbaOptions::droid();
+  DbaOptionOverrides o;
   o.weight_scale = weight_scale;
-  o.gauge = gauge;
-  return o;
+  o.gauge = gauge.type;
+  if (gauge.type == GaugeOptions::Type::TwoPose) {
+    o.gauge_sigma_rot = gauge.sigma_rot;
+    o.gauge_sigma_trans = gauge.sigma_trans;
+  }
+  return o.resolve();
 }
 
 Scenario::Scenario(ScenarioConfig config) : config_(std::move(config)) {

@@ -173,11 +173,7 @@ void applyScenarioJson(const std::string& text, const std::string& source, Scena
     o.get("amplitude", c.noise.amplitude);
   });
   r.object("gauge", [&](Reader& o) {
-    o.getEnum<GaugeOptions::Type>("type", c.gauge.type, [](const std::string& n) {
-      if (n == "two-pose") return GaugeOptions::Type::TwoPose;
-      if (n == "minimal") return GaugeOptions::Type::Minimal;
-      throw std::invalid_argument("unknown gauge '" + n + "', expected two-pose or minimal");
-    });
+    o.getEnum<GaugeOptions::Type>("type", c.gauge.type, parseEnum<GaugeOptions::Type>);
     o.get("sigma_rot", c.gauge.sigma_rot);
     o.get("sigma_trans", c.gauge.sigma_trans);
   });
@@ -260,7 +256,7 @@ std::string scenarioConfigToJson(const ScenarioConfig& c) {
         {"correlation_length_px", c.noise.correlation_length_px},
         {"amplitude", c.noise.amplitude}}},
       {"gauge",
-       {{"type", c.gauge.type == GaugeOptions::Type::Minimal ? "minimal" : "two-pose"},
+       {{"type", toString(c.gauge.type)},
         {"sigma_rot", c.gauge.sigma_rot},
         {"sigma_trans", c.gauge.sigma_trans}}},
       {"initial_perturbation",

@@ -1,4 +1,9 @@
 // `dba-covariance`: marginal pose covariances of DBA snapshots (conventions §2–§5).
+//
+// The run is four stages: parse (flags → CovarianceAppOptions), sinks (one per requested output),
+// pipeline (snapshots read in order, computed in parallel, handed to the sinks in order) and
+// commit (every output appears at the end, or none). runCovariance() takes the options as a struct
+// (what tests and the Python module call); runCovarianceApp() parses a command line into it.
 #pragma once
 
 #include <optional>
@@ -6,29 +11,35 @@
 #include <string>
 #include <vector>
 
-#include "dbacov/core/covariance.h"
+#include "dbacov/app/outputs.h"
+#include "dbacov/app/run_summary.h"
+#include "dbacov/app/visual_outputs.h"
 #include "dbacov/core/options.h"
 
 namespace dbacov::app {
 
 struct CovarianceAppOptions {
-  std::vector<std::string> inputs;
+  std::vector<std::string> inputs;  ///< .npz files, directories of them, snapshot rawlogs
   std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path, graph_prefix;
-  std::string emit = "latest", label = "DBA_COVARIANCE";
-  std::optional<double> fps;
-  std::string solver = "sparse", ordering = "auto";
-  std::string preset = "droid";
-  std::optional<double> weight_scale, gauge_sigma_rot, gauge_sigma_trans, near, far,
-      min_depth_ratio;
-  std::optional<std::string> gauge;
-  std::size_t threads = 0;  ///< 0 = all cores
+  EmitMode emit = EmitMode::Latest;
+  std::string label = "DBA_COVARIANCE";
+  std::optional<double> fps;     ///< keyframe times = tstamp / fps without 'timestamps_s'
+  DbaOptionOverrides engine;     ///< --preset, --weight-scale, --gauge, ... (core/options.h)
+  CovarianceOptions covariance;  ///< --solver, --ordering; depth variances set by the outputs
+  SceneOutputOptions scene;      ///< --scene, --snapshot, ...
+  std::string plots_dir;         ///< --plots
+  std::size_t threads = 0;       ///< 0 = all cores
+  FailurePolicy policy = FailurePolicy::KeepGoing;
   bool quiet = false;
 
-  /// The engine options: the preset, then every option the user gave. Throws
-  /// std::invalid_argument for values out of their domain or contradicting options.
-  DbaOptions engineOptions() const;
-  SolverOptions solverOptions() const;
+  /// True when any output is requested.
+  bool anyOutput() const;
 };
+
+/// Runs the app on parsed options: messages and the summary line go to `err`. Returns 0 on
+/// success, 1 when any input or output failed (after processing the rest; none written under
+/// FailFast), 2 when the options are invalid.
+int runCovariance(const CovarianceAppOptions& options, std::ostream& err);
 
 /// Runs the app with command-line arguments (argv[0] is the program name). Returns the exit code:
 /// 0 success, 1 when any input or output failed (after processing the rest), 2 on bad usage.

@@ -11,9 +11,30 @@
 //                --config), each solved and evaluated in-process.
 #pragma once
 
+#include <optional>
 #include <ostream>
+#include <string>
+#include <vector>
+
+#include "dbacov/app/scenario_options.h"
 
 namespace dbacov::app {
+
+/// The options of dba-evaluate (its --help says what each does).
+struct EvaluateOptions {
+  std::string csv, relative_csv, rawlog, rawlog_label, gt,
+      gt_format = "auto", image_times, align = "none", pairs = "consecutive", json, samples_csv;
+  std::vector<double> body_to_camera;
+  double time_tolerance = 1e-3, max_gap = 0.1;
+  int monte_carlo = 0, first_run = 0, calibration_runs = 0;
+  bool calibrate = false, quiet = false;
+  std::optional<double> inflation;
+  ScenarioOptions scenario;
+};
+
+/// Runs the app on parsed options (the report to `out`, messages to `err`). Returns 0 on success,
+/// 1 when an input or output failed (or nothing could be evaluated), 2 on invalid options.
+int runEvaluate(const EvaluateOptions& options, std::ostream& out, std::ostream& err);
 
 /// Runs the app; returns 0 on success, 1 when an input or output failed (or nothing could be
 /// evaluated), 2 on bad usage.

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "dbacov/app/evaluation_inputs.h"
-#include "dbacov/core/consistency.h"
+#include "dbacov/sim/consistency.h"
 
 namespace dbacov::app {
 

@@ -1,7 +1,8 @@
 // The extra-constraints file of `dba-posegraph`: loop closures and absolute pose priors.
 //
 // One constraint per line; '#' starts a comment; blank lines are ignored. Poses are
-// tx ty tz qx qy qz qw; covariances are over the conventions §3 tangent [ρ; φ] (right perturbation):
+// tx ty tz qx qy qz qw; covariances are over the conventions §3 tangent [ρ; φ] (right
+// perturbation):
 //   relative FROM TO  tx ty tz qx qy qz qw  COV     constraint on Z = T_wc_FROM⁻¹ T_wc_TO
 //   absolute ID       tx ty tz qx qy qz qw  COV     prior on T_wc of node ID
 // where COV is either "sigma_t sigma_r" (isotropic: σ_t² I₃ ⊕ σ_r² I₃) or the 21 upper-triangular

@@ -10,17 +10,12 @@
 #include <utility>
 #include <vector>
 
-#include <mrpt/poses/CPose3DPDFGaussian.h>
-
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/pose_graph.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/io/deferred_files.h"
-
-namespace dbacov::mrpt_bridge {
-class RawlogWriter;
-}
+#include "dbacov/mrpt/bridge.h"
 
 namespace dbacov::app {
 
@@ -39,7 +34,7 @@ class OutputSink {
   virtual void add(const Snapshot& snapshot, const DbaCovariance& cov) = 0;
   /// Makes the output appear (the last step of a run). Throws InputError on I/O failure.
   virtual void commit() = 0;
-  /// True when the sink needs per-pixel depth variances (SolverOptions::depth_variances).
+  /// True when the sink needs per-pixel depth variances (CovarianceOptions::depth_variances).
   virtual bool needsDepthVariances() const { return false; }
 };
 
@@ -103,11 +98,22 @@ enum class EmitMode {
   All,     ///< every graph keyframe of every snapshot
   Final,   ///< each keyframe once (identified by its tstamp), from the last snapshot containing it
 };
-/// "latest", "all", "final"; throws std::invalid_argument otherwise.
-EmitMode parseEmitMode(const std::string& name);
+}  // namespace dbacov::app
+
+template <>
+struct dbacov::EnumNames<dbacov::app::EmitMode> {
+  static constexpr const char* what = "emit mode";
+  static constexpr std::array<std::pair<app::EmitMode, const char*>, 3> entries{
+      {{app::EmitMode::Latest, "latest"},
+       {app::EmitMode::All, "all"},
+       {app::EmitMode::Final, "final"}}};
+};
+
+namespace dbacov::app {
 
 /// `-o poses.rawlog`: CObservationRobotPose with a CPose3DPDFGaussian (mean T_wc, covariance
-/// converted from the tangent, conventions §6) per emitted keyframe, timestamped with the keyframe time.
+/// converted from the tangent, conventions §6) per emitted keyframe, timestamped with the keyframe
+/// time, written through the MRPT bridge.
 class PoseRawlogSink final : public OutputSink {
  public:
   PoseRawlogSink(const std::string& path, std::string label, EmitMode mode);
@@ -118,15 +124,11 @@ class PoseRawlogSink final : public OutputSink {
   void commit() override;
 
  private:
-  struct Record {
-    double time;
-    mrpt::poses::CPose3DPDFGaussian pose;
-  };
+  using Record = mrpt_bridge::PoseRecord;
   /// The records of the keyframes that `mode_` emits for this snapshot (keyframe, record).
   std::vector<std::pair<int, Record>> records(const Snapshot& s, const DbaCovariance& cov) const;
-  void write(const Record& r);
 
-  std::unique_ptr<mrpt_bridge::RawlogWriter> writer_;
+  std::unique_ptr<mrpt_bridge::PoseRawlogWriter> writer_;
   std::string label_;
   EmitMode mode_;
   std::map<double, Record> final_;  ///< Final mode: tstamp → newest record

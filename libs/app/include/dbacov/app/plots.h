@@ -13,9 +13,9 @@
 //       right, y down, z forward; the snapshots' length unit) and rotation (φx, φy, φz, degrees),
 //       log scale; zero (fixed) components left out.
 //   DIR/depth_sigma/<snapshot>_<keyframe>.png  per source keyframe with depth maps: its inverse
-//       depth d and the standard deviation of d per pixel (conventions §5; log colour scale), colour maps
-//       with colour bars; grey where a pixel carries no information. Keyframes whose pixels carry
-//       none get no file.
+//       depth d and the standard deviation of d per pixel (conventions §5; log colour scale),
+//       colour maps with colour bars; grey where a pixel carries no information. Keyframes whose
+//       pixels carry none get no file.
 //   DIR/keyframes.csv  the plotted values, one row per keyframe in time order:
 //       sequence,tstamp,time_s,snapshot,keyframe,gauge,log10_det,log10_det_trans,log10_det_rot,
 //       sigma_tx,sigma_ty,sigma_tz,sigma_rx_deg,sigma_ry_deg,sigma_rz_deg

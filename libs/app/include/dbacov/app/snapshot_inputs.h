@@ -12,8 +12,8 @@
 #include "dbacov/core/snapshot.h"
 
 namespace dbacov::mrpt_bridge {
-class RawlogSnapshotReader;
-}
+class SnapshotRawlogReader;
+}  // namespace dbacov::mrpt_bridge
 
 namespace dbacov::app {
 
@@ -75,7 +75,7 @@ class SnapshotStream {
   const SnapshotInputs& inputs_;
   std::size_t file_ = 0;
   std::int64_t index_ = 0;
-  std::unique_ptr<mrpt_bridge::RawlogSnapshotReader> rawlog_;
+  std::unique_ptr<mrpt_bridge::SnapshotRawlogReader> rawlog_;
   std::size_t rawlog_snapshots_ = 0;  ///< snapshots read from the current rawlog
 };
 

@@ -16,7 +16,7 @@
 #include "dbacov/app/sequence_history.h"
 
 namespace dbacov::mrpt_bridge {
-class SceneRenderer;
+class ScenePainter;
 struct SceneContent;
 }  // namespace dbacov::mrpt_bridge
 
@@ -69,7 +69,7 @@ class SceneSink final : public OutputSink {
   Eigen::Vector4d intrinsics_ = Eigen::Vector4d::Ones();
   int H_ = 1, W_ = 1;
   std::map<double, std::vector<Eigen::Vector3f>> points_;  ///< tstamp → world points
-  std::unique_ptr<mrpt_bridge::SceneRenderer> renderer_;
+  std::unique_ptr<mrpt_bridge::ScenePainter> painter_;     ///< through the MRPT bridge
   std::unique_ptr<io::DeferredFiles> frames_;  ///< --snapshot-every pictures, until commit()
   std::int64_t last_label_ = 0;
   std::size_t processed_ = 0;

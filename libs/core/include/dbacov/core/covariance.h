@@ -1,11 +1,13 @@
-// Marginal pose covariances of one DBA snapshot (conventions §4–§5). The query API is deliberately small:
-// build once, then ask for one keyframe's covariance, a joint block or a relative-pose covariance.
+// Marginal pose covariances of one DBA snapshot (conventions §4–§5). The query API is deliberately
+// small: build once, then ask for one keyframe's covariance, a joint block or a relative-pose
+// covariance.
 //
 // Statistical model: every pixel factor r ~ N(0, Λ⁻¹) with Λ = weight_scale · diag(w_x, w_y),
 // independent across pixels and edges, linearized at the snapshot's state (which DBA made a local
 // optimum). The covariances are the inverse of the Gauss-Newton information with the depths
-// marginalized and the gauge of conventions §4; they are as good as this model. Raw DROID weights treat
-// correlated pixels as independent, so calibrate `weight_scale` against ground truth (conventions §7).
+// marginalized and the gauge of conventions §4; they are as good as this model. Raw DROID weights
+// treat correlated pixels as independent, so calibrate `weight_scale` against ground truth
+// (conventions §7).
 //
 // Construction fails with
 //   - InputError      when the snapshot is invalid,
@@ -16,31 +18,21 @@
 #include <memory>
 #include <vector>
 
-#include "dbacov/core/linearization.h"
-#include "dbacov/core/marginal_solver.h"
+#include <Eigen/Geometry>
+
 #include "dbacov/core/options.h"
 #include "dbacov/core/se3.h"
 #include "dbacov/core/snapshot.h"
+#include "dbacov/core/summary.h"
 
 namespace dbacov {
 
-enum class SolverKind {
-  Sparse,  ///< CHOLMOD + sparse-inverse recursion (default)
-  Dense,   ///< dense Cholesky + full inverse (the test reference; small graphs only)
-};
-
-struct SolverOptions {
-  SolverKind kind = SolverKind::Sparse;
-  Ordering ordering = Ordering::Auto;
-  /// Keep the depth terms of the linearization so that inverseDepthSigma() can answer (costs
-  /// 6·(1 + targets) doubles per pixel of every source keyframe).
-  bool depth_variances = false;
-};
-
 class DbaCovariance {
  public:
+  /// Validates the options (std::invalid_argument), linearizes,
+  /// fixes the gauge and factorizes; throws NumericalError as described above.
   DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
-                const SolverOptions& solver = {});
+                const CovarianceOptions& covariance = {});
   ~DbaCovariance();
   DbaCovariance(DbaCovariance&&) noexcept;
   DbaCovariance& operator=(DbaCovariance&&) noexcept;
@@ -61,10 +53,11 @@ class DbaCovariance {
   Matrix6d relative(int a, int b) const;
 
   /// Standard deviation of the inverse depth of every pixel of source keyframe `keyframe`
-  /// (H×W, C order): var(d_k) = 1/h_k + b_kᵀ Σ b_k / h_k² (conventions §5), using only the blocks of Σ
-  /// between the keyframe and its edge targets. NaN where a pixel carries no information (no
+  /// (H×W, C order): var(d_k) = 1/h_k + b_kᵀ Σ b_k / h_k² (conventions §5), using only the blocks
+  /// of Σ between the keyframe and its edge targets. NaN where a pixel carries no information (no
   /// weighted factor, filtered, d <= 0, or unobservable). Requires depth_variances in the
-  /// solver options (std::logic_error otherwise); keyframes that are no edge source get all NaN.
+  /// covariance options (std::logic_error otherwise); keyframes that are no edge source get all
+  /// NaN.
   std::vector<float> inverseDepthSigma(int keyframe) const;
   /// Keyframes that are the source of at least one edge.
   std::vector<int> sourceKeyframes() const;
@@ -72,6 +65,8 @@ class DbaCovariance {
   /// Camera-to-world pose of a keyframe at the linearization point.
   const Eigen::Isometry3d& T_wc(int keyframe) const;
   const LinearizationStats& stats() const;
+  /// What the computation did: solver, ordering, nnz(L), pixels, time per stage.
+  const CovarianceSummary& summary() const;
 
  private:
   struct Impl;

@@ -1,5 +1,6 @@
-// Scalar uncertainty criteria of a 6×6 tangent covariance (conventions §5). Computed on the tangent Σ of
-// conventions §3, never on MRPT's yaw/pitch/roll covariance (whose determinant depends on the pitch).
+// Scalar uncertainty criteria of a 6×6 tangent covariance (conventions §5). Computed on the tangent
+// Σ of conventions §3, never on MRPT's yaw/pitch/roll covariance (whose determinant depends on the
+// pitch).
 #pragma once
 
 #include "dbacov/core/se3.h"

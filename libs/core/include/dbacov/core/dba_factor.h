@@ -33,7 +33,8 @@ struct PixelFactorLinearization {
   Eigen::Vector2d J_d;              ///< ∂r/∂d   (inverse depth of the source pixel)
 };
 
-/// The point in frame j, Y[0:3] of conventions §2 (Y[3] = d). Y.z() = z_j·d is DROID's "depth ratio".
+/// The point in frame j, Y[0:3] of conventions §2 (Y[3] = d). Y.z() = z_j·d is DROID's "depth
+/// ratio".
 inline Eigen::Vector3d transferPoint(const Eigen::Matrix3d& R_ji, const Eigen::Vector3d& t_ji,
                                      const PinholeIntrinsics& K, double x, double y, double d) {
   const Eigen::Vector3d p((x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0);

@@ -1,8 +1,13 @@
-// Options of the covariance engine: measurement weighting, pixel filters and gauge (conventions §2, §4).
+// Options of the covariance engine: measurement weighting, pixel filters, gauge (conventions §2,
+// §4) and the solver (conventions §5). Defaults live in the declarations; validate() names the bad
+// field. Text forms (flags, JSON, Python keywords) of every enum come from one table each
+// (enum_names.h); `app/engine_options.h` is the one place that turns flags into these structs.
 #pragma once
 
 #include <optional>
 #include <string>
+
+#include "dbacov/core/enum_names.h"
 
 namespace dbacov {
 
@@ -22,9 +27,15 @@ struct GaugeOptions {
   double sigma_trans = 0.0;  ///< snapshot length units, TwoPose only
 };
 
+/// Engine presets (conventions §2).
+enum class Preset {
+  Droid,  ///< DROID-SLAM's own DBA
+  Paper,  ///< the paper's code path, corrected
+};
+
 struct DbaOptions {
   /// Information of a pixel factor is weight_scale · diag(w_x, w_y), in px^-2.
-  double weight_scale = 1e-3;
+  double weight_scale = kDroidWeightScale;
   /// DROID's rule: drop a pixel factor when Y2 = z_j·d < min_depth_ratio. Unset: no such rule.
   std::optional<double> min_depth_ratio = 0.25;
   /// Keep a pixel factor only if d < 1/near and its metric depth in frame j, Y2/d, is > near.
@@ -37,17 +48,91 @@ struct DbaOptions {
   double depth_info_eps = 1e-12;
   GaugeOptions gauge;
 
+  /// DROID's DBA weight scale (droid_kernels.cu): the `droid` preset's, and the scale that
+  /// dba-evaluate assumes for files when none is given.
+  static constexpr double kDroidWeightScale = 1e-3;
+
   /// DROID-SLAM's own DBA: weight_scale 0.001, Y2 >= 0.25, two-pose gauge hard-fixed.
   static DbaOptions droid();
   /// The paper's code path, corrected: weight_scale 0.1, near 0.25 / far 2 depth filter, two-pose
   /// gauge with sigmas 1° (rotation) and 0.05 (translation).
   static DbaOptions paper();
+  static DbaOptions preset(Preset preset);
   /// "droid" or "paper"; throws std::invalid_argument for anything else.
   static DbaOptions preset(const std::string& name);
 
   /// Throws std::invalid_argument when a value is out of its domain (non-positive weight scale,
   /// negative sigmas, near >= far, ...).
   void validate() const;
+};
+
+enum class SolverKind {
+  Sparse,  ///< CHOLMOD + sparse-inverse recursion (default)
+  Dense,   ///< dense Cholesky + full inverse (the test reference; small graphs only)
+};
+
+/// Fill-reducing orderings of the sparse solver. Results do not depend on the ordering (up to
+/// round-off); speed and memory do.
+enum class Ordering {
+  Auto,     ///< CHOLMOD's default: AMD, and METIS when AMD's fill is poor
+  Amd,      ///< approximate minimum degree
+  Metis,    ///< METIS nested dissection
+  Nesdis,   ///< CHOLMOD's nested dissection
+  Natural,  ///< no permutation (tests)
+};
+
+/// The one builder of DbaOptions from what a user gave (flags, JSON, Python keywords): the preset,
+/// then every value that is set. `gauge` names the gauge type only: a two-pose gauge keeps the
+/// preset's (or the given) sigmas, a minimal gauge has none (giving a sigma with it is an error).
+struct DbaOptionOverrides {
+  Preset preset = Preset::Droid;
+  std::optional<double> weight_scale;
+  std::optional<GaugeOptions::Type> gauge;
+  std::optional<double> gauge_sigma_rot, gauge_sigma_trans;
+  std::optional<double> near, far;
+  std::optional<double> min_depth_ratio;  ///< 0 turns DROID's depth-ratio rule off
+
+  /// The options; throws std::invalid_argument for values out of their domain (naming the
+  /// option by its flag) or contradicting ones.
+  DbaOptions resolve() const;
+};
+
+/// How DbaCovariance computes (conventions §5).
+struct CovarianceOptions {
+  SolverKind kind = SolverKind::Sparse;
+  Ordering ordering = Ordering::Auto;
+  /// Keep the depth terms of the linearization so that inverseDepthSigma() can answer (costs
+  /// 6·(1 + targets) doubles per pixel of every source keyframe).
+  bool depth_variances = false;
+};
+
+template <>
+struct EnumNames<GaugeOptions::Type> {
+  static constexpr const char* what = "gauge";
+  static constexpr std::array<std::pair<GaugeOptions::Type, const char*>, 2> entries{
+      {{GaugeOptions::Type::TwoPose, "two-pose"}, {GaugeOptions::Type::Minimal, "minimal"}}};
+};
+template <>
+struct EnumNames<Preset> {
+  static constexpr const char* what = "preset";
+  static constexpr std::array<std::pair<Preset, const char*>, 2> entries{
+      {{Preset::Droid, "droid"}, {Preset::Paper, "paper"}}};
+};
+template <>
+struct EnumNames<SolverKind> {
+  static constexpr const char* what = "solver";
+  static constexpr std::array<std::pair<SolverKind, const char*>, 2> entries{
+      {{SolverKind::Sparse, "sparse"}, {SolverKind::Dense, "dense"}}};
+};
+template <>
+struct EnumNames<Ordering> {
+  static constexpr const char* what = "ordering";
+  static constexpr std::array<std::pair<Ordering, const char*>, 5> entries{
+      {{Ordering::Auto, "auto"},
+       {Ordering::Amd, "amd"},
+       {Ordering::Metis, "metis"},
+       {Ordering::Nesdis, "nesdis"},
+       {Ordering::Natural, "natural"}}};
 };
 
 }  // namespace dbacov

@@ -1,6 +1,7 @@
 // One DBA snapshot of DROID-SLAM: the dense bundle adjustment factor graph at one frontend update.
 //
-// Layout and units follow conventions §1 exactly; this struct is the in-memory form of one `.npz` file.
+// Layout and units follow conventions §1 exactly; this struct is the in-memory form of one `.npz`
+// file.
 //   poses_cw     N×7, world-to-camera T_cw as [tx ty tz qx qy qz qw] (lietorch order), double
 //   disps        N×H×W inverse depth per pixel, C order (index (n*H + y)*W + x)
 //   intrinsics   fx fy cx cy of the H×W grid
@@ -75,10 +76,10 @@ struct Snapshot {
   /// index, sorted, without duplicates.
   std::vector<std::pair<int, int>> relativePairs() const;
 
-  /// Checks shapes, index ranges and values (conventions §1). Throws InputError naming `source`, the key
-  /// and what was expected: inconsistent shapes, ii/jj out of range or equal, non-finite poses or
-  /// zero-norm quaternions, non-finite intrinsics/disps/targets/weights/time stamps, negative
-  /// weights, weights that are zero everywhere (no information at all), non-positive focal
+  /// Checks shapes, index ranges and values (conventions §1). Throws InputError naming `source`,
+  /// the key and what was expected: inconsistent shapes, ii/jj out of range or equal, non-finite
+  /// poses or zero-norm quaternions, non-finite intrinsics/disps/targets/weights/time stamps,
+  /// negative weights, weights that are zero everywhere (no information at all), non-positive focal
   /// lengths.
   void validate() const;
 };

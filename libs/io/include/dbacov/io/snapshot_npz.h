@@ -33,12 +33,13 @@ Snapshot loadSnapshotNpz(const std::string& path, std::int64_t index);
 Snapshot loadSnapshotNpzFromMemory(const std::string& name, std::vector<unsigned char> bytes,
                                    std::int64_t index);
 
-/// Writes `snapshot` to `path` atomically with the keys of conventions §1: poses float64 (N,7); disps,
-/// intrinsics, target, weight float32; ii, jj int64 (E,); tstamp and (if present) timestamps_s
-/// float64 (N,); id (if present) int64 scalar (). Deflated when `compressed` (np.savez_compressed),
-/// else stored (np.savez). Note that the double-precision intrinsics are stored as float32.
-/// Calls snapshot.validate() first, so an invalid snapshot is never written (InputError); write
-/// failures throw InputError naming the path and leave any previous file untouched.
+/// Writes `snapshot` to `path` atomically with the keys of conventions §1: poses float64 (N,7);
+/// disps, intrinsics, target, weight float32; ii, jj int64 (E,); tstamp and (if present)
+/// timestamps_s float64 (N,); id (if present) int64 scalar (). Deflated when `compressed`
+/// (np.savez_compressed), else stored (np.savez). Note that the double-precision intrinsics are
+/// stored as float32. Calls snapshot.validate() first, so an invalid snapshot is never written
+/// (InputError); write failures throw InputError naming the path and leave any previous file
+/// untouched.
 void saveSnapshotNpz(const std::string& path, const Snapshot& snapshot, bool compressed = true);
 
 /// Paths ("<dir>/<name>") of the regular files (or links to them) in `dir` whose name ends in

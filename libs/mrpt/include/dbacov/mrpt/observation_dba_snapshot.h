@@ -1,9 +1,10 @@
-// One DBA snapshot as an MRPT observation, so that snapshots travel in rawlogs (conventions §1, §6).
+// One DBA snapshot as an MRPT observation, so that snapshots travel in rawlogs (conventions §1,
+// §6).
 //
 // Serialization (version 0): timestamp, sensorLabel, then N, H, W, E as int32, the arrays of
-// conventions §1 in C order (poses as float64 T_cw, disps/target/weight float32, intrinsics float64,
-// ii/jj int64, tstamp float64), and the optional timestamps_s and id behind a presence flag.
-// Reading refuses declared sizes beyond kMaxSnapshotBytes before allocating, grows each array
+// conventions §1 in C order (poses as float64 T_cw, disps/target/weight float32, intrinsics
+// float64, ii/jj int64, tstamp float64), and the optional timestamps_s and id behind a presence
+// flag. Reading refuses declared sizes beyond kMaxSnapshotBytes before allocating, grows each array
 // only with the data that really arrives (a record that declares more than the stream holds costs
 // no more memory than what it holds), refuses a sensorLabel longer than 64 KiB and presence flags
 // other than 0/1, and throws InputError on truncated records, naming the array. Value checks

@@ -29,4 +29,8 @@ Matrix6d tangentToYprJacobian(const Eigen::Isometry3d& T_wc);
 mrpt::poses::CPose3DPDFGaussian toPoseGaussian(const Eigen::Isometry3d& T_wc,
                                                const Matrix6d& Sigma_tangent);
 
+/// The inverse: the tangent covariance J⁻¹ Σ_ypr J⁻ᵀ of an MRPT [x y z yaw pitch roll] covariance
+/// at T_wc (what a pose rawlog read back holds). Throws std::domain_error at gimbal lock.
+Matrix6d yprToTangentCovariance(const Eigen::Isometry3d& T_wc, const Matrix6d& Sigma_ypr);
+
 }  // namespace dbacov::mrpt_bridge

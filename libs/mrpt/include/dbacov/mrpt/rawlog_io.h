@@ -1,6 +1,6 @@
-// Rawlog files (conventions §6): gz-compressed, observations-only, written atomically; read object by
-// object with errors that name the file and entry (CRawlog::loadFromRawLogFile stops silently at an
-// object it cannot read, so it is not used).
+// Rawlog files (conventions §6): gz-compressed, observations-only, written atomically; read object
+// by object with errors that name the file and entry (CRawlog::loadFromRawLogFile stops silently at
+// an object it cannot read, so it is not used).
 #pragma once
 
 #include <cstddef>

@@ -1,5 +1,5 @@
-// Monte Carlo consistency runs of a simulated scenario (conventions §7): N noise draws of one scenario,
-// each snapshot solved and its covariances computed in-process, NEES against the truth.
+// Monte Carlo consistency runs of a simulated scenario (conventions §7): N noise draws of one
+// scenario, each snapshot solved and its covariances computed in-process, NEES against the truth.
 //
 // Samples of one solved snapshot:
 //   absolute  every graph keyframe with a non-singular marginal: e = Log(T_est⁻¹ T_true) and the
@@ -19,9 +19,9 @@
 #include <string>
 #include <vector>
 
-#include "dbacov/core/consistency.h"
-#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/options.h"
+#include "dbacov/sim/consistency.h"
+#include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/scenario.h"
 
 namespace dbacov::sim {

@@ -36,10 +36,10 @@
 #include <Eigen/Geometry>
 
 #include "dbacov/core/dba_factor.h"
-#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/sim/covisibility.h"
+#include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/pixel_models.h"
 #include "dbacov/sim/scene.h"
 #include "dbacov/sim/trajectory.h"

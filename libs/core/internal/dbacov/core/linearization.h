@@ -1,7 +1,8 @@
-// Linearization of a snapshot's DBA at its stored state and elimination of the depths (conventions §4).
+// Linearization of a snapshot's DBA at its stored state and elimination of the depths (conventions
+// §4).
 //
-// Variables: the tangent ξ_a (conventions §3) of every graph keyframe ("slot" a, ascending keyframe index)
-// and one inverse depth d_k per (source keyframe, pixel), shared by every edge leaving that
+// Variables: the tangent ξ_a (conventions §3) of every graph keyframe ("slot" a, ascending keyframe
+// index) and one inverse depth d_k per (source keyframe, pixel), shared by every edge leaving that
 // keyframe. With whitened residuals the normal equations are
 //     [Hpp  Hpd] [δp]     [g_p]
 //     [Hdp  Hdd] [δd] = − [g_d],     g = Jᵀ Λ r,   H = Jᵀ Λ J,
@@ -20,6 +21,7 @@
 #include "dbacov/core/block_matrix.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/snapshot.h"
+#include "dbacov/core/summary.h"
 
 namespace dbacov {
 
@@ -31,14 +33,6 @@ struct DepthTerms {
   std::vector<double> h;     ///< Hdd entry of each kept depth (> depth_info_eps)
   std::vector<double> g;     ///< g_d entry of each kept depth
   Eigen::MatrixXd B;         ///< 6·|touched| × pixel.size(): column k is b_k on the touched slots
-};
-
-struct LinearizationStats {
-  std::size_t factors_used = 0;         ///< pixel factors (edge, pixel) that carry information
-  std::size_t factors_filtered = 0;     ///< dropped by the depth filters or behind the camera
-  std::size_t depths_used = 0;          ///< depth variables eliminated
-  std::size_t depths_unobservable = 0;  ///< depth variables with 0 < Hdd <= eps (not eliminated)
-  double chi2 = 0.0;                    ///< Σ rᵀ Λ r over used factors
 };
 
 struct DbaNormalEquations {

@@ -1,4 +1,5 @@
-// The statistics of core/consistency.h against closed forms, tables and the numbers of conventions §7.
+// The statistics of core/consistency.h against closed forms, tables and the numbers of conventions
+// §7.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -6,13 +7,14 @@
 
 #include <Eigen/Cholesky>
 
-#include "dbacov/core/consistency.h"
+#include "dbacov/sim/consistency.h"
 
 namespace dbacov {
 namespace {
 
 TEST(ChiSquare, RegionsAreTheNumbersOfTheSpec) {
-  // conventions §7: 6 DoF, N = 50: [5.08, 7.00]; N = 100: [5.34, 6.70]; 3 DoF, N = 100: [2.54, 3.50].
+  // conventions §7: 6 DoF, N = 50: [5.08, 7.00]; N = 100: [5.34, 6.70]; 3 DoF, N = 100:
+  // [2.54, 3.50].
   ChiSquareRegion r = aneesRegion(6, 50);
   EXPECT_NEAR(r.lower, 5.08, 0.005);
   EXPECT_NEAR(r.upper, 7.00, 0.005);

@@ -1,14 +1,15 @@
 // Consistency statistics of pose covariances against ground truth (conventions §7).
 //
-// Error:    e = Log(T_est⁻¹ T_true) in the tangent of conventions §3: the truth is T_est · Exp(e), so a
+// Error:    e = Log(T_est⁻¹ T_true) in the tangent of conventions §3: the truth is T_est · Exp(e),
+// so a
 //           consistent covariance Σ of the estimate is the covariance of e.
 // NEES:     eᵀ Σ⁺ e over the range of Σ; its DoF is the rank of Σ (6, 5 for the scale keyframe of
 //           the minimal gauge, 0 for a hard-fixed keyframe, which is not a sample). Eigenvalues at
 //           or below 1e-12 × the largest count as zero. A consistent Σ gives NEES ~ χ²(DoF).
 // ANEES:    the mean NEES of a set of samples. For the mean of N independent χ²(k) values the
-//           two-sided (1 − α) region is [χ²_{Nk}(α/2), χ²_{Nk}(1 − α/2)] / N; conventions §7: k = 6,
-//           N = 50 → [5.08, 7.00]. Samples are grouped into *runs* (independent noise draws, e.g.
-//           Monte Carlo runs or snapshots of the simulator); several samples of one run (the
+//           two-sided (1 − α) region is [χ²_{Nk}(α/2), χ²_{Nk}(1 − α/2)] / N; conventions §7: k =
+//           6, N = 50 → [5.08, 7.00]. Samples are grouped into *runs* (independent noise draws,
+//           e.g. Monte Carlo runs or snapshots of the simulator); several samples of one run (the
 //           keyframes of one snapshot) are correlated. summarize() therefore uses N = number of
 //           runs and k = mean DoF: the variance of a mean of correlated χ²(k) values is at most
 //           that of one of them (Cauchy–Schwarz), so this region is conservative (too wide, never

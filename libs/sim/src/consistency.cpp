@@ -1,4 +1,4 @@
-#include "dbacov/core/consistency.h"
+#include "dbacov/sim/consistency.h"
 
 #include <algorithm>
 #include <cmath>

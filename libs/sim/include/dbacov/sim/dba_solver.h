@@ -7,8 +7,9 @@
 // without it).
 //
 // Cost: F = ½ Σ rᵀ Λ r over the pixel factors that carry information under the options' filters
-// (conventions §2, exactly the factors linearizeDba uses), plus, for a soft two-pose gauge, the priors
-// ½ eᵀ P e with e = Log(T_wc_0⁻¹ T_wc) of the gauge keyframes, centred on their *initial* poses.
+// (conventions §2, exactly the factors linearizeDba uses), plus, for a soft two-pose gauge, the
+// priors ½ eᵀ P e with e = Log(T_wc_0⁻¹ T_wc) of the gauge keyframes, centred on their *initial*
+// poses.
 //
 // One iteration (the linear algebra of linearization.h):
 //   1. linearize at the state: S, g_S, and per depth h_k, g_k, b_k;
@@ -18,7 +19,8 @@
 //   3. reduce to the gauge coordinates (ξ_a = basis_a x_a, gauge.h) and solve S_λ,r x = −g_λ,r
 //      with CHOLMOD; δξ_a = basis_a x_a, so hard-fixed components never move;
 //   4. back-substitute the depths: δd_k = −(g_k + b_kᵀ δp) / ((1+λ) h_k);
-//   5. trial state T_wc_a · Exp(δξ_a) (conventions §3) and d_k + δd_k; inverse depths are bounded below
+//   5. trial state T_wc_a · Exp(δξ_a) (conventions §3) and d_k + δd_k; inverse depths are bounded
+//   below
 //      by min_inverse_depth (DROID clamps at 0.001): a step that crosses the bound is clamped, and
 //      a depth at the bound whose gradient points further down is *active*: it is held (δd = 0,
 //      not eliminated: its b_k b_kᵀ/((1+λ) h_k) is added back to S_λ) and left out of the
@@ -55,7 +57,6 @@
 
 #include <Eigen/Core>
 
-#include "dbacov/core/marginal_solver.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/snapshot.h"
 

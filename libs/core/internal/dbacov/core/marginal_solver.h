@@ -9,6 +9,8 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include "dbacov/core/options.h"
+
 namespace dbacov {
 
 /// S is not (numerically) positive definite. `column` is the first column of S, in the caller's
@@ -50,16 +52,6 @@ class MarginalSolver {
 
   /// Short name for reports ("dense", "cholmod").
   virtual std::string name() const = 0;
-};
-
-/// Fill-reducing orderings of the sparse solver. Results do not depend on the ordering (up to
-/// round-off); speed and memory do.
-enum class Ordering {
-  Auto,     ///< CHOLMOD's default: AMD, and METIS when AMD's fill is poor
-  Amd,      ///< approximate minimum degree
-  Metis,    ///< METIS nested dissection
-  Nesdis,   ///< CHOLMOD's nested dissection
-  Natural,  ///< no permutation (tests)
 };
 
 /// Sparse supernodal Cholesky of S with CHOLMOD, then the sparse-inverse recursion

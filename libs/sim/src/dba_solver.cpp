@@ -1,4 +1,4 @@
-#include "dbacov/core/dba_solver.h"
+#include "dbacov/sim/dba_solver.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,6 +8,7 @@
 
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/linearization.h"
+#include "dbacov/core/marginal_solver.h"
 #include "dbacov/core/se3.h"
 
 namespace dbacov {

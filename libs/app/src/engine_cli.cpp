@@ -1,0 +1,66 @@
+#include "engine_cli.h"
+
+#include <CLI/CLI.hpp>
+
+#include "dbacov/app/outputs.h"
+
+namespace dbacov::app::detail {
+
+template <class E>
+CLI::Option* addEnumOption(CLI::App& cli, const std::string& flags, E& value,
+                           const std::string& description) {
+  return cli
+      .add_option_function<std::string>(
+          flags, [&value](const std::string& name) { value = parseEnum<E>(name); }, description)
+      ->check(CLI::IsMember(enumNames<E>()));
+}
+
+template <class E>
+CLI::Option* addEnumOption(CLI::App& cli, const std::string& flags, std::optional<E>& value,
+                           const std::string& description) {
+  return cli
+      .add_option_function<std::string>(
+          flags, [&value](const std::string& name) { value = parseEnum<E>(name); }, description)
+      ->check(CLI::IsMember(enumNames<E>()));
+}
+
+template CLI::Option* addEnumOption(CLI::App&, const std::string&, Preset&, const std::string&);
+template CLI::Option* addEnumOption(CLI::App&, const std::string&, SolverKind&, const std::string&);
+template CLI::Option* addEnumOption(CLI::App&, const std::string&, Ordering&, const std::string&);
+template CLI::Option* addEnumOption(CLI::App&, const std::string&, EmitMode&, const std::string&);
+template CLI::Option* addEnumOption(CLI::App&, const std::string&,
+                                    std::optional<GaugeOptions::Type>&, const std::string&);
+
+CLI::Option* addWeightScaleOption(CLI::App& cli, std::optional<double>& value,
+                                  const std::string& default_text) {
+  return cli
+      .add_option("--weight-scale", value,
+                  "Information per unit confidence, px^-2 (" + default_text + ")")
+      ->check(CLI::PositiveNumber);
+}
+
+void addEngineOptions(CLI::App& cli, DbaOptionOverrides& o) {
+  addEnumOption(cli, "--preset", o.preset, "Engine preset: droid (default) or paper");
+  addWeightScaleOption(cli, o.weight_scale, "the preset's: droid 0.001, paper 0.1");
+  addEnumOption(
+      cli, "--gauge", o.gauge,
+      "two-pose (priors on the first two keyframes of ii) or minimal (first fixed + scale)");
+  cli.add_option("--gauge-sigma-rot", o.gauge_sigma_rot,
+                 "two-pose prior sigma of rotation, rad (0 = hard fix)");
+  cli.add_option("--gauge-sigma-trans", o.gauge_sigma_trans,
+                 "two-pose prior sigma of translation (0 = hard fix)");
+  cli.add_option("--near", o.near,
+                 "Keep a pixel only if d < 1/near and its depth in frame j > near");
+  cli.add_option("--far", o.far, "Keep a pixel only if d > 1/far");
+  cli.add_option("--min-depth-ratio", o.min_depth_ratio,
+                 "Drop a pixel when z_j*d is below this (droid 0.25; 0 = off)");
+}
+
+void addCovarianceOptions(CLI::App& cli, CovarianceOptions& o) {
+  addEnumOption(cli, "--solver", o.kind,
+                "sparse (CHOLMOD, default) or dense (reference, small graphs)");
+  addEnumOption(cli, "--ordering", o.ordering,
+                "Fill-reducing ordering of the sparse solver: auto, amd, metis, nesdis, natural");
+}
+
+}  // namespace dbacov::app::detail

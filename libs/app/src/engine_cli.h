@@ -1,0 +1,38 @@
+// Private to dbacov_app: the command-line face of the engine options. Every app that computes
+// covariances registers them here, so each flag is declared once and turned into DbaOptions by
+// the one builder (DbaOptionOverrides::resolve, core/options.h).
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "dbacov/core/options.h"
+
+namespace CLI {
+class App;
+class Option;
+}  // namespace CLI
+
+namespace dbacov::app::detail {
+
+/// Registers --preset, --weight-scale, --gauge, --gauge-sigma-rot, --gauge-sigma-trans, --near,
+/// --far and --min-depth-ratio (values land in `o`).
+void addEngineOptions(CLI::App& cli, DbaOptionOverrides& o);
+
+/// Registers --solver and --ordering (values land in `o`).
+void addCovarianceOptions(CLI::App& cli, CovarianceOptions& o);
+
+/// --weight-scale: information per unit confidence, px^-2. `default_text` says what an unset
+/// value means in the app (e.g. "the preset's: droid 0.001, paper 0.1").
+CLI::Option* addWeightScaleOption(CLI::App& cli, std::optional<double>& value,
+                                  const std::string& default_text);
+
+/// An option whose text is one of the names of enum E (enum_names.h), stored into `value`.
+template <class E>
+CLI::Option* addEnumOption(CLI::App& cli, const std::string& flags, E& value,
+                           const std::string& description);
+template <class E>
+CLI::Option* addEnumOption(CLI::App& cli, const std::string& flags, std::optional<E>& value,
+                           const std::string& description);
+
+}  // namespace dbacov::app::detail

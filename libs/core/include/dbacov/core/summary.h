@@ -1,0 +1,46 @@
+// What a covariance computation did, for logs and reports (Ceres' Solver::Summary in spirit):
+// DbaCovariance::summary() fills it; brief() is one line, full() a small table.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace dbacov {
+
+/// Counts of the linearization (conventions §2, §4).
+struct LinearizationStats {
+  std::size_t factors_used = 0;         ///< pixel factors (edge, pixel) that carry information
+  std::size_t factors_filtered = 0;     ///< dropped by the depth filters or behind the camera
+  std::size_t depths_used = 0;          ///< depth variables eliminated
+  std::size_t depths_unobservable = 0;  ///< depth variables with 0 < Hdd <= eps (not eliminated)
+  double chi2 = 0.0;                    ///< Σ rᵀ Λ r over used factors
+};
+
+/// Per-edge variance factors of a self-calibrated covariance (empty when none was applied).
+struct SelfCalibrationSummary {
+  std::string method;               ///< the method's name; empty: no self-calibration
+  std::vector<double> edge_factor;  ///< per edge (snapshot order): variance inflation
+};
+
+struct CovarianceSummary {
+  std::string solver;    ///< "cholmod" or "dense"
+  std::string ordering;  ///< the requested fill-reducing ordering (sparse solver)
+  int keyframes = 0;     ///< graph keyframes
+  int edges = 0;
+  int free_dof = 0;                ///< dimension of the reduced system after the gauge
+  std::size_t factor_entries = 0;  ///< nnz(L) (dense: n²)
+  LinearizationStats linearization;
+  double seconds_linearize = 0;  ///< linearization + Schur complement over the depths
+  double seconds_gauge = 0;      ///< gauge parameterization and reduction
+  double seconds_factorize = 0;  ///< factorization (and the selected inverse, when eager)
+  SelfCalibrationSummary self_calibration;
+
+  /// One line, e.g. "11 keyframes, 58 edges, 120341 pixel factors, cholmod (auto) nnz(L) 1830,
+  /// 8.1 ms".
+  std::string brief() const;
+  /// Every field, one per line.
+  std::string full() const;
+};
+
+}  // namespace dbacov

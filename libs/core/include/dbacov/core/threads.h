@@ -1,0 +1,26 @@
+// How many threads the engine's parallel loops use (oneTBB underneath, private to dbacov_core).
+// The number is a process-wide limit that a ThreadLimit sets while it lives (the apps' --threads).
+#pragma once
+
+#include <cstddef>
+#include <memory>
+
+namespace dbacov {
+
+/// Limits the threads of every parallel region while it lives (0 = the machine's default).
+class ThreadLimit {
+ public:
+  explicit ThreadLimit(std::size_t threads);
+  ~ThreadLimit();
+  ThreadLimit(const ThreadLimit&) = delete;
+  ThreadLimit& operator=(const ThreadLimit&) = delete;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Threads the parallel regions may use now.
+std::size_t currentThreadLimit();
+
+}  // namespace dbacov

@@ -1,0 +1,63 @@
+#include "dbacov/core/summary.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <sstream>
+
+namespace dbacov {
+namespace {
+
+std::string milliseconds(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f ms", 1e3 * s);
+  return buf;
+}
+
+std::string factorRange(const std::vector<double>& f) {
+  if (f.empty()) return "none";
+  std::vector<double> v = f;
+  std::sort(v.begin(), v.end());
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "min %.3g, median %.3g, max %.3g", v.front(), v[v.size() / 2],
+                v.back());
+  return buf;
+}
+
+}  // namespace
+
+std::string CovarianceSummary::brief() const {
+  std::ostringstream os;
+  os << keyframes << " keyframes, " << edges << " edges, " << linearization.factors_used
+     << " pixel factors, " << solver;
+  if (solver == "cholmod") os << " (" << ordering << ")";
+  os << " nnz(L) " << factor_entries << ", "
+     << milliseconds(seconds_linearize + seconds_gauge + seconds_factorize);
+  if (!self_calibration.method.empty())
+    os << ", self-calibrated (" << self_calibration.method << ")";
+  return os.str();
+}
+
+std::string CovarianceSummary::full() const {
+  std::ostringstream os;
+  os << "keyframes                " << keyframes << '\n'
+     << "edges                    " << edges << '\n'
+     << "pixel factors used       " << linearization.factors_used << '\n'
+     << "pixel factors filtered   " << linearization.factors_filtered << '\n'
+     << "depths eliminated        " << linearization.depths_used << '\n'
+     << "depths unobservable      " << linearization.depths_unobservable << '\n'
+     << "chi2 (weighted)          " << linearization.chi2 << '\n'
+     << "free DoF after gauge     " << free_dof << '\n'
+     << "solver                   " << solver << '\n'
+     << "ordering                 " << ordering << '\n'
+     << "nnz(L)                   " << factor_entries << '\n'
+     << "linearize + Schur        " << milliseconds(seconds_linearize) << '\n'
+     << "gauge + reduction        " << milliseconds(seconds_gauge) << '\n'
+     << "factorization            " << milliseconds(seconds_factorize) << '\n'
+     << "self-calibration         "
+     << (self_calibration.method.empty() ? std::string("none") : self_calibration.method) << '\n';
+  if (!self_calibration.method.empty())
+    os << "edge variance factors    " << factorRange(self_calibration.edge_factor) << '\n';
+  return os.str();
+}
+
+}  // namespace dbacov
