@@ -75,7 +75,7 @@ void checkUsage(const EvaluateOptions& o) {
   if (o.gt.empty()) throw std::invalid_argument("--gt is required with covariance files");
   if (!o.relative_csv.empty() && o.csv.empty())
     throw std::invalid_argument("--relative-csv needs --csv (it gives the keyframes' times)");
-  if (!o.csv.empty() && !o.scenario.fps && o.image_times.empty())
+  if (!o.csv.empty() && !o.scenario.number("--fps") && o.image_times.empty())
     throw std::invalid_argument(
         "--csv needs --fps [--start-time] or --image-times to turn tstamp into seconds");
   if (o.align == "sim3" && !o.rawlog.empty())
@@ -106,7 +106,8 @@ std::vector<ReportSection> fileSections(const EvaluateOptions& o, std::ostream& 
   if (!o.csv.empty()) {
     const KeyframeTimes times =
         o.image_times.empty()
-            ? KeyframeTimes::fromRate(*o.scenario.fps, o.scenario.start_time.value_or(0.0))
+            ? KeyframeTimes::fromRate(*o.scenario.number("--fps"),
+                                      o.scenario.number("--start-time").value_or(0.0))
             : KeyframeTimes::fromFile(o.image_times);
     const auto kf = readKeyframeCsv(o.csv);
     const auto rel = o.relative_csv.empty() ? std::vector<RelativeCovarianceRow>{}
@@ -308,8 +309,9 @@ int runEvaluate(const EvaluateOptions& o, std::ostream& out, std::ostream& err) 
     } else {
       sections = fileSections(o, err, &failed);
       if (!failed)
-        cal = calibration(o, sections,
-                          o.scenario.weight_scale.value_or(DbaOptions::kDroidWeightScale), "", "");
+        cal = calibration(
+            o, sections,
+            o.scenario.number("--weight-scale").value_or(DbaOptions::kDroidWeightScale), "", "");
     }
     if (!failed) {
       printReport(out, sections, cal);

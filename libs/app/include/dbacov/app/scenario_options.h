@@ -1,11 +1,13 @@
 // Command-line options that select and override a simulated scenario (sim/scenario.h), shared by
-// `simul-dba` and the Monte Carlo mode of `dba-evaluate`.
+// `simul-dba` and the Monte Carlo mode of `dba-evaluate`. The overridable settings and their flags
+// are the rows of sim/scenario_schema.h (the same table that reads and writes the JSON files).
 //
 // Precedence: the defaults of ScenarioConfig, then the `--config FILE` (share/sim/*.json, see
 // sim/scenario_json.h), then every option given on the command line.
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 
@@ -19,11 +21,8 @@ namespace dbacov::app {
 
 struct ScenarioOptions {
   std::string config_path;
-  std::optional<std::string> mode, trajectory, weights, noise, gauge;
-  std::optional<int> keyframes, snapshots, window, height, width, edge_radius;
-  std::optional<double> overlap_threshold, weight_min, weight_max, zero_fraction,
-      correlation_length, noise_amplitude, weight_scale, fps, start_time;
-  std::optional<std::uint64_t> seed;
+  std::map<std::string, std::string> given;  ///< flag → text, for the rows of the schema
+  std::optional<int> snapshots;              ///< sliding window: keyframes = snapshots + W − 1
   bool no_solve = false;
 
   /// True when any scenario setting other than --weight-scale, --fps and --start-time was given.
@@ -33,6 +32,9 @@ struct ScenarioOptions {
   /// The configuration: defaults, then the file, then the options. Throws InputError when the
   /// file cannot be read or parsed, std::invalid_argument for contradicting or invalid values.
   sim::ScenarioConfig resolve() const;
+
+  /// The number given with `flag` (e.g. "--fps"), or nothing. std::invalid_argument if no number.
+  std::optional<double> number(const std::string& flag) const;
 };
 
 }  // namespace dbacov::app

@@ -1,6 +1,7 @@
 // Scenario configurations as JSON files (share/sim/*.json), read with nlohmann-json.
 //
-// A file is one object whose keys override the defaults of ScenarioConfig; every key is optional,
+// A file is one object whose keys override the defaults of ScenarioConfig (the settings and their
+// keys are the rows of scenario_schema.h); every key is optional,
 // unknown keys are errors (they are typos), and values must have the right JSON type:
 //   seed (integer), mode ("sliding-window" | "whole"), window, weight_scale, solve (bool),
 //   camera        {height, width, fx, fy, cx, cy}
