@@ -9,6 +9,17 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 status=0
+# The tree is formatted with clang-format 14 (Debian 12's; scripts/setup.sh installs it): another
+# major version formats differently, so it is refused rather than trusted.
+if ! command -v clang-format > /dev/null; then
+  echo "check_source: clang-format is not installed (scripts/setup.sh installs it)" >&2
+  exit 1
+fi
+version=$(clang-format --version | sed -n 's/.*version \([0-9]*\)\..*/\1/p')
+if [ "$version" != "14" ]; then
+  echo "check_source: clang-format $version found, the tree is formatted with version 14" >&2
+  exit 1
+fi
 mapfile -t files < <(git ls-files '*.cpp' '*.h' '*.hpp' '*.cc')
 if [ "${1:-}" = "--fix" ]; then
   clang-format -i "${files[@]}"

@@ -21,6 +21,8 @@ PACKAGES=(
   # Reliability (scripts/test.sh, scripts/fuzz.sh): zlib (rawlogs from pipes), clang with its
   # libFuzzer and sanitizer runtimes for the fuzz targets (the sanitizer pass itself uses GCC).
   zlib1g-dev clang libclang-rt-14-dev
+  # Source checks (scripts/check_source.sh): the tree is formatted with Debian 12's clang-format 14.
+  clang-format
 )
 
 missing=()

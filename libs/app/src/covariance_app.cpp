@@ -272,6 +272,7 @@ int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
   try {
     engine = opt.engine.resolve();
     opt.scene.validate();
+    if (!opt.anyOutput()) throw std::invalid_argument("no output requested");
   } catch (const std::exception& e) {
     err << "dba-covariance: " << e.what() << '\n';
     return 2;

@@ -49,6 +49,8 @@ usage.)";
 
 /// Checks the combination of options; throws std::invalid_argument with the reason.
 void checkUsage(const EvaluateOptions& o) {
+  for (const char* flag : {"--fps", "--start-time", "--weight-scale"})
+    o.scenario.number(flag);  // a malformed number is bad usage, found before any work
   if (o.calibrate && o.inflation)
     throw std::invalid_argument("give either --calibrate or --inflation");
   if (o.calibration_runs > 0 && o.inflation)

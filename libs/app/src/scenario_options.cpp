@@ -1,5 +1,7 @@
 #include "dbacov/app/scenario_options.h"
 
+#include <cctype>
+#include <cmath>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -36,6 +38,7 @@ void ScenarioOptions::add(CLI::App& cli) {
     CLI::Option* o = cli.add_option_function<std::string>(
         flag, [this, flag](const std::string& text) { given[flag] = text; }, f.help);
     o->group(g);
+    o->type_name(f.type_name);
     if (!f.choices.empty()) o->check(CLI::IsMember(f.choices));
     addChecks(o, flag);
     if (flag == "--keyframes")
@@ -58,10 +61,12 @@ bool ScenarioOptions::anyScenarioSetting() const {
 std::optional<double> ScenarioOptions::number(const std::string& flag) const {
   const auto it = given.find(flag);
   if (it == given.end()) return std::nullopt;
+  const std::string& text = it->second;
   char* end = nullptr;
-  const double v = std::strtod(it->second.c_str(), &end);
-  if (end == it->second.c_str() || *end != '\0')
-    throw std::invalid_argument(flag + " '" + it->second + "': expected a number");
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0])) || *end != '\0' ||
+      !std::isfinite(v))
+    throw std::invalid_argument(flag + " '" + text + "': expected a finite number");
   return v;
 }
 

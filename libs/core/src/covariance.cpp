@@ -75,7 +75,8 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   m.W = snapshot.W;
   m.gauge = makeGauge(options.gauge, snapshot, m.ne.keyframes);
   checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
-  const Eigen::SparseMatrix<double> S_reduced =
+  // The reduced system lives only until it is factorized (it is as large as S).
+  Eigen::SparseMatrix<double> S_reduced =
       m.gauge.dim() > 0 ? reduceSystem(m.ne.S, m.gauge) : Eigen::SparseMatrix<double>();
   const auto t2 = Clock::now();
   m.T_wc.assign(snapshot.numKeyframes(), Eigen::Isometry3d::Identity());
@@ -93,6 +94,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
     // A gauge that fixes every keyframe (two keyframes, hard two-pose gauge) leaves nothing free:
     // every covariance is zero and there is nothing to factorize.
     if (m.gauge.dim() > 0) m.solver->factorize(S_reduced);
+    S_reduced = Eigen::SparseMatrix<double>();
   } catch (const FactorizationError& e) {
     std::vector<int> kf;
     if (e.column() >= 0) {

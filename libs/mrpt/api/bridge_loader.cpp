@@ -1,10 +1,10 @@
-// mrptBridge(): loads libdbacov_mrpt.so on first use (bridge.h). The library is looked for next to
+// mrptBridge(): loads libdbacov_mrpt.so on first use (bridge.h). The library is the one next to
 // the library that holds this function (the build's lib/ directory, or wherever both are
-// installed), then on the loader's default path.
+// installed); only when no such file exists is the loader's default search path tried.
 #include <dlfcn.h>
+#include <sys/stat.h>
 
 #include <atomic>
-#include <mutex>
 #include <string>
 
 #include "dbacov/core/errors.h"
@@ -26,37 +26,33 @@ std::string ownDirectory() {
 }
 
 const Bridge* load() {
-  std::string path = ownDirectory() + kLibrary;
+  // A library next to this one is the one built with it: a failure to load it is reported as it
+  // is, not hidden by a stale copy found elsewhere on the search path.
+  const std::string beside = ownDirectory() + kLibrary;
+  struct stat st {};
+  const std::string path = ::stat(beside.c_str(), &st) == 0 ? beside : kLibrary;
   // RTLD_GLOBAL: MRPT's class registry and the typeinfo of exceptions are shared with the process.
   void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_GLOBAL);
-  std::string why = handle ? "" : ::dlerror();
-  if (!handle) {
-    handle = ::dlopen(kLibrary, RTLD_NOW | RTLD_GLOBAL);
-    if (handle) path = kLibrary;
-  }
   if (!handle)
     throw InputError("cannot load the MRPT bridge " + path +
-                     " (needed for rawlogs, pose graphs "
-                     "and scenes): " +
-                     why);
+                     " (needed for rawlogs, pose graphs and scenes): " + ::dlerror());
   using Entry = const Bridge* (*)();
   auto entry = reinterpret_cast<Entry>(::dlsym(handle, kEntry));
-  if (!entry)
+  if (!entry) {
+    ::dlclose(handle);
     throw InputError("cannot load the MRPT bridge " + path + ": it has no " + kEntry +
                      " (a library of another dbacov version?)");
+  }
   return entry();
 }
 
 }  // namespace
 
 const Bridge& mrptBridge() {
-  static std::mutex mutex;
-  static const Bridge* bridge = nullptr;
-  std::lock_guard<std::mutex> lock(mutex);
-  if (!bridge) {
-    bridge = load();
-    loaded = true;
-  }
+  // A function-local static is initialized once, thread-safely; a load that throws is retried by
+  // the next call. After that, calls cost no lock.
+  static const Bridge* const bridge = load();
+  loaded = true;
   return *bridge;
 }
 

@@ -74,6 +74,7 @@ ScenarioField field(std::string key, std::string flag, std::string help, Access 
   f.key = std::move(key);
   f.flag = std::move(flag);
   f.help = std::move(help);
+  f.type_name = std::is_floating_point_v<T> ? "FLOAT" : std::is_integral_v<T> ? "INT" : "";
   f.read = [access](const json& v, ScenarioConfig& c, const std::string& where) {
     access(c) = fromJson<T>(v, where);
   };
@@ -103,6 +104,7 @@ ScenarioField enumField(std::string key, std::string flag, std::string help,
   f.flag = std::move(flag);
   f.help = std::move(help);
   f.choices = std::move(choices);
+  f.type_name = "TEXT";
   f.read = [access, parse](const json& v, ScenarioConfig& c, const std::string& where) {
     if (!v.is_string()) typeError(where, "expected a string");
     try {

@@ -1,7 +1,8 @@
 // Options of the covariance engine: measurement weighting, pixel filters, gauge (conventions §2,
 // §4) and the solver (conventions §5). Defaults live in the declarations; validate() names the bad
 // field. Text forms (flags, JSON, Python keywords) of every enum come from one table each
-// (enum_names.h); `app/engine_options.h` is the one place that turns flags into these structs.
+// (enum_names.h); DbaOptionOverrides is the one builder from user values (the apps' flags,
+// declared once in libs/app/src/engine_cli.h; the scenario; the Python keywords).
 #pragma once
 
 #include <optional>
@@ -92,8 +93,8 @@ struct DbaOptionOverrides {
   std::optional<double> near, far;
   std::optional<double> min_depth_ratio;  ///< 0 turns DROID's depth-ratio rule off
 
-  /// The options; throws std::invalid_argument for values out of their domain (naming the
-  /// option by its flag) or contradicting ones.
+  /// The options; throws std::invalid_argument for values out of their domain (DbaOptions::
+  /// validate's messages) or contradicting ones.
   DbaOptions resolve() const;
 };
 

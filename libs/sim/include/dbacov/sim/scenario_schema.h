@@ -29,6 +29,7 @@ struct ScenarioField {
   std::function<void(const std::string& text, ScenarioConfig& config)> parse;
   /// Allowed texts of an enum flag (for the CLI's check), empty for other types.
   std::vector<std::string> choices;
+  std::string type_name;  ///< for help texts: INT, FLOAT, TEXT, ...
 };
 
 /// Every setting, in the order the writer emits them and the command line applies them.
