@@ -17,6 +17,9 @@ namespace dbacov::app::detail {
 int usageExitStatus(const CLI::App& cli, const std::string& app, std::ostream& out,
                     std::ostream& err);
 
+/// The app's --help text (CLI11's, without range annotations such as `INT in [0 - 4096]`).
+std::string helpText(const CLI::App& cli);
+
 /// Registers --keep-going (the default) and --fail-fast (sets `fail_fast`), mutually exclusive,
 /// for apps that read several snapshots (README "Reliability").
 void addFailurePolicyOptions(CLI::App& cli, bool& fail_fast);

@@ -66,19 +66,22 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
   detail::VisualCli visual;  // pictures: --scene, --snapshot, --plots (visual_cli.h)
   cli.footer(std::string(kConventions) + detail::kVisualHelp + kExitStatus);
   cli.add_option("-i,--input", opt.inputs,
-                 "Snapshot .npz file or directory of them (name order); repeatable")
+                 "Snapshots: a .npz file, a directory of them (name order) or a rawlog of "
+                 "snapshots (droid2rawlog); repeatable")
       ->required();
   cli.add_option("--csv", opt.csv_path,
                  "Write one row per (snapshot, graph keyframe): pose, criteria, covariance");
   cli.add_option(
       "-o,--output", opt.rawlog_path,
-      "Write a rawlog of CObservationRobotPose (CPose3DPDFGaussian) per emitted keyframe");
+      "Write a rawlog of CObservationRobotPose (CPose3DPDFGaussian) per emitted keyframe; "
+      "needs keyframe times: 'timestamps_s' in the snapshots, or --fps");
   detail::addEnumOption(cli, "--emit", opt.emit,
                         "Keyframes in the rawlog: latest (newest of each snapshot), all, final "
                         "(each once, from its last snapshot)");
   cli.add_option("--label", opt.label, "sensorLabel of the rawlog observations");
   cli.add_option("--fps", opt.fps,
-                 "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
+                 "Camera frame rate: keyframe times = tstamp / fps for snapshots without "
+                 "'timestamps_s' (older DROID dumps, the shared snapshot); -o needs times")
       ->check(CLI::PositiveNumber);
   cli.add_option(
       "--graph", opt.graph_prefix,

@@ -56,7 +56,9 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
   auto* out_opt = cli.add_option("-o,--output", output, "Output rawlog");
   auto* info_opt =
       cli.add_option("--info", info, "Summarize snapshot files or rawlogs instead of converting");
-  cli.add_option("--fps", fps, "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
+  cli.add_option("--fps", fps,
+                 "Camera frame rate: keyframe times = tstamp / fps for snapshots without "
+                 "'timestamps_s' (needed then: the rawlog's timestamps are keyframe times)")
       ->check(CLI::PositiveNumber);
   cli.add_option("--label", label, "sensorLabel of the snapshot observations");
   cli.add_flag("-q,--quiet", quiet, "No summary line");

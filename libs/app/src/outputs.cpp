@@ -118,7 +118,10 @@ PoseRawlogSink::PoseRawlogSink(const std::string& path, std::string label, EmitM
 PoseRawlogSink::~PoseRawlogSink() = default;
 
 void PoseRawlogSink::check(const Snapshot& s) const {
-  keyframeTime(s, 0);  // throws when the snapshot has no keyframe times
+  if (!s.timestamps_s)  // the rawlog's timestamps are the keyframes' times
+    throw InputError(
+        "-o needs keyframe times and the snapshot has none: add --fps F (keyframe time = "
+        "tstamp / F, F = the camera's frame rate), or dump the image times as 'timestamps_s'");
 }
 
 std::vector<std::pair<int, PoseRawlogSink::Record>> PoseRawlogSink::records(

@@ -27,9 +27,11 @@ PoseGraph loadGraph(const std::string& path) {
   else if (ext == ".graph")
     g = mrpt_bridge::mrptBridge().readGraph(path, true);
   else
-    throw std::invalid_argument(path +
-                                ": expected a .graphbin (exact) or .graph (MRPT text) file; "
-                                "MRPT's loader would misread the rotation information of a .g2o");
+    throw std::invalid_argument(
+        path +
+        ": expected a .graphbin (exact) or .graph (MRPT text) file; MRPT's loader would "
+        "misread the rotation information of a .g2o: run dba-posegraph -g " +
+        fs::path(path).replace_extension(".graphbin").string());
   if (g.nodes.empty()) throw InputError(path + ": the graph has no nodes");
   for (const auto& [id, T] : g.nodes)
     if (!T.matrix().allFinite())
@@ -44,11 +46,17 @@ PoseGraph loadGraph(const std::string& path) {
     if (!e.Z.matrix().allFinite()) throw InputError(edge + " has a non-finite relative pose");
     Matrix6d unused;
     const Matrix6d I = e.information;
-    if (!I.allFinite() || !informationOf(0.5 * (I + I.transpose()), &unused))
-      throw InputError(edge + " has an information matrix that is not positive definite" +
-                       (ext == ".graph" ? " (MRPT's text loader drops its rotation-rotation "
-                                          "off-diagonal entries; load the .graphbin instead)"
-                                        : ""));
+    if (!I.allFinite() || !informationOf(0.5 * (I + I.transpose()), &unused)) {
+      if (ext == ".graph") {  // the usual cause on real data: say what to run instead
+        const std::string bin = fs::path(path).replace_extension(".graphbin").string();
+        throw InputError(path + ": MRPT's text loader cannot hold this graph (edge " +
+                         std::to_string(e.from) + " -> " + std::to_string(e.to) +
+                         ": it drops the rotation-rotation off-diagonal information, which "
+                         "leaves it not positive definite); run dba-posegraph -g " +
+                         bin + " (written next to it by dba-covariance --graph; exact)");
+      }
+      throw InputError(edge + " has an information matrix that is not positive definite");
+    }
   }
   return g;
 }
@@ -82,7 +90,9 @@ double nodeTime(const PoseGraph& g, int id, const std::string& nodes_path) {
   if (t == g.node_time.end())
     throw InputError("node " + std::to_string(id) + " has no time in " +
                      (nodes_path.empty() ? std::string("(no node times file)") : nodes_path) +
-                     ": rawlog and TUM outputs need keyframe times");
+                     ": rawlog and TUM outputs need keyframe times (give --nodes "
+                     "PREFIX.nodes.csv written by dba-covariance --graph with --fps F or "
+                     "snapshots with 'timestamps_s')");
   return t->second;
 }
 

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <utility>
 
 namespace dbacov::app {
 namespace {
@@ -29,7 +31,46 @@ std::string seconds(double s) {
   return buf;
 }
 
+/// DBACOV_PROGRESS_PERIOD (seconds between log lines), when set to a number >= 0.
+double logPeriod() {
+  const char* v = std::getenv("DBACOV_PROGRESS_PERIOD");
+  if (!v || !*v) return 5;
+  char* end = nullptr;
+  const double p = std::strtod(v, &end);
+  return (*end == '\0' && p >= 0 && std::isfinite(p)) ? p : 5;
+}
+
+Progress::Display defaultDisplay(bool enabled, const std::string& unit) {
+  Progress::Display d;
+  const bool tty = isatty(STDERR_FILENO) != 0;
+  d.terminal = enabled && tty;
+  d.log = enabled && !tty;
+  d.log_period_s = logPeriod();
+  d.unit = unit;
+  return d;
+}
+
 }  // namespace
+
+std::string Progress::formatLogLine(std::size_t done, std::size_t total, double elapsed,
+                                    const std::string& unit) {
+  std::string line = "progress: " + std::to_string(done);
+  if (total > 0) line += "/" + std::to_string(total);
+  line += " " + unit;
+  if (total > 0) line += " (" + std::to_string(100 * std::min(done, total) / total) + "%)";
+  char rate[48];
+  if (elapsed > 0 && done > 0) {
+    std::snprintf(rate, sizeof rate, ", %.3g %s/s", static_cast<double>(done) / elapsed,
+                  unit.c_str());
+    line += rate;
+  }
+  line += ", " + seconds(elapsed) + " elapsed";
+  if (total > 0 && done > 0 && done < total)
+    line += ", ~" +
+            seconds(elapsed / static_cast<double>(done) * static_cast<double>(total - done)) +
+            " left";
+  return line;
+}
 
 std::string Progress::formatLine(std::size_t done, std::size_t total, double elapsed,
                                  const std::string& label, std::size_t width) {
@@ -51,11 +92,18 @@ std::string Progress::formatLine(std::size_t done, std::size_t total, double ela
   return line;
 }
 
-Progress::Progress(std::ostream& err, std::size_t total, bool enabled)
-    : err_(err),
-      total_(total),
-      enabled_(enabled && isatty(STDERR_FILENO)),
-      start_(std::chrono::steady_clock::now()) {}
+Progress::Progress(std::ostream& err, std::size_t total, bool enabled, const std::string& unit)
+    : Progress(err, total, defaultDisplay(enabled, unit)) {}
+
+Progress::Progress(std::ostream& err, std::size_t total, Display display)
+    : err_(err), total_(total), display_(std::move(display)) {
+  start_ = last_ = now();
+}
+
+double Progress::now() const {
+  if (display_.clock) return display_.clock();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
 
 Progress::~Progress() {
   clear();
@@ -63,12 +111,20 @@ Progress::~Progress() {
 
 void Progress::step(const std::string& label) {
   ++started_;
-  if (!enabled_) return;
-  const auto now = std::chrono::steady_clock::now();
-  if (now - start_ < std::chrono::milliseconds(500)) return;  // short runs: nothing
-  if (drawn_ && now - last_ < std::chrono::milliseconds(100)) return;
-  last_ = now;
-  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  if (display_.log) {
+    const double t = now();
+    // One line per period: the first after one period, then one period after the previous line.
+    if (t - last_ < display_.log_period_s) return;
+    last_ = t;
+    err_ << formatLogLine(started_ - 1, total_, t - start_, display_.unit) << '\n' << std::flush;
+    return;
+  }
+  if (!display_.terminal) return;
+  const double t = now();
+  if (t - start_ < 0.5) return;  // short runs: nothing
+  if (drawn_ && t - last_ < 0.1) return;
+  last_ = t;
+  const double elapsed = t - start_;
   // Keep one column free: a line exactly as wide as the terminal wraps on some terminals.
   err_ << "\r\033[K" << formatLine(started_ - 1, total_, elapsed, label, terminalWidth() - 1)
        << std::flush;

@@ -159,8 +159,8 @@ void Snapshot::validate() const {
 double keyframeTime(const Snapshot& s, int k) {
   if (!s.timestamps_s)
     throw InputError(
-        "no keyframe times (key 'timestamps_s'): give --fps to derive them from "
-        "'tstamp'");
+        "no keyframe times: add --fps F (keyframe time = tstamp / F, F = the camera's frame "
+        "rate), or dump the image times as 'timestamps_s'");
   return (*s.timestamps_s)[k];
 }
 

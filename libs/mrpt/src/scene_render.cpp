@@ -153,6 +153,10 @@ void aimCamera(mrpt::opengl::CCamera& cam, mrpt::opengl::COpenGLScene& scene,
 
 void applyView(mrpt::opengl::COpenGLScene& scene, const SceneView& view) {
   aimCamera(scene.getViewport()->getCamera(), scene, view);
+  // SceneViewer3D (MRPT 2.5.8, _DSceneViewerFrame::loadFromFile) takes the main viewport's camera
+  // (pointing, zoom, azimuth, elevation) only when the scene's followCamera flag is set; without
+  // it the viewer keeps its own camera (target 0, zoom 20): a sub-unit DROID scene is a speck.
+  scene.enableFollowCamera(true);
 }
 
 /// The thread that owns the EGL context: runs one job at a time, posted by run().

@@ -106,9 +106,17 @@ Scenario::Scenario(ScenarioConfig config) : config_(std::move(config)) {
   const int K = config_.trajectory.num_keyframes, H = config_.camera.H, W = config_.camera.W;
   for (int k = 0; k < K; ++k) {
     const Eigen::Isometry3d T = trajectoryPose(config_.trajectory, k);
-    if (!config_.scene.isFree(T.translation()))
+    if (!config_.scene.isFree(T.translation())) {
+      std::string hint;
+      if (config_.trajectory.type != TrajectoryType::Loop && k > 0)
+        hint =
+            "; a " + toString(config_.trajectory.type) + " trajectory leaves the room after " +
+            std::to_string(k) + " keyframes (this run needs " + std::to_string(K) +
+            (config_.mode == SimulationMode::WholeTrajectory ? "" : " = snapshots + window - 1") +
+            "): ask for fewer, or use --trajectory loop, which stays in the room at any length";
       throw std::invalid_argument("scenario: the camera of keyframe " + std::to_string(k) +
-                                  " is outside the room or inside a box");
+                                  " is outside the room or inside a box" + hint);
+    }
     T_wc_true_.push_back(T);
     std::vector<double> d(static_cast<std::size_t>(H) * W);
     for (int p = 0; p < H * W; ++p)

@@ -6,10 +6,17 @@
 //
 // The line is redrawn in place (carriage return, erase line) at most ~10 times per second and is
 // cut to the terminal's width (so that it never wraps).
+//
+// When standard error is not a terminal (a log file, a pipe) and the display is enabled, a plain
+// line is printed instead every few seconds (DBACOV_PROGRESS_PERIOD seconds, default 5; 0 = at
+// every item), so that a long run in a log shows where it is:
+//
+//   progress: 12/24 snapshots (50%), 3.9 snapshots/s, 3 s elapsed, ~3 s left
 #pragma once
 
 #include <chrono>
 #include <cstddef>
+#include <functional>
 #include <ostream>
 #include <string>
 
@@ -17,8 +24,19 @@ namespace dbacov::app {
 
 class Progress {
  public:
-  /// `total` = 0 when unknown. Enabled only if `enabled` and standard error is a terminal.
-  Progress(std::ostream& err, std::size_t total, bool enabled);
+  /// How the progress is shown; the default constructor's choice is described above.
+  struct Display {
+    bool terminal = false;          ///< draw the bar in place
+    bool log = false;               ///< print a line every `log_period_s` seconds
+    double log_period_s = 5;        ///< 0: a line at every item
+    std::function<double()> clock;  ///< seconds on any monotonic clock (default: steady_clock)
+    std::string unit = "snapshots";
+  };
+  /// `total` = 0 when unknown. If `enabled`: the bar when standard error is a terminal, else the
+  /// periodic log line (`unit` names the items in it).
+  Progress(std::ostream& err, std::size_t total, bool enabled,
+           const std::string& unit = "snapshots");
+  Progress(std::ostream& err, std::size_t total, Display display);
   ~Progress();
   /// Reports that item `label` starts (items before it are done).
   void step(const std::string& label);
@@ -29,12 +47,18 @@ class Progress {
   /// `elapsed` seconds so far, the current item's label; at most `width` characters.
   static std::string formatLine(std::size_t done, std::size_t total, double elapsed,
                                 const std::string& label, std::size_t width);
+  /// The log line (no newline): `done` of `total` (0 = unknown: no percentage, no estimate)
+  /// `unit` after `elapsed` seconds, with the rate and the estimated time left.
+  static std::string formatLogLine(std::size_t done, std::size_t total, double elapsed,
+                                   const std::string& unit);
 
  private:
+  double now() const;
   std::ostream& err_;
   std::size_t total_, started_ = 0;
-  bool enabled_, drawn_ = false;
-  std::chrono::steady_clock::time_point start_, last_{};
+  Display display_;
+  bool drawn_ = false;
+  double start_ = 0, last_ = 0;
 };
 
 }  // namespace dbacov::app

@@ -44,8 +44,9 @@ SceneView fitView(const SceneContent& content, const SceneStyle& style, int widt
 Eigen::Vector2d projectToPicture(const SceneView& view, int width, int height,
                                  const Eigen::Vector3d& p_display);
 
-/// Sets the scene's main viewport camera and clip distances to `view` (what SceneViewer3D shows
-/// first when it opens the saved scene).
+/// Sets the scene's main viewport camera and clip distances to `view` and enables the scene's
+/// followCamera flag, so that SceneViewer3D opens the saved scene with this view (it ignores the
+/// viewport camera without the flag). The viewer's canvas uses a 30° perspective, as fitView().
 void applyView(mrpt::opengl::COpenGLScene& scene, const SceneView& view);
 
 /// An offscreen renderer of a fixed picture size.
