@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 
 PACKAGES=(
   build-essential cmake ninja-build pkg-config git
-  libeigen3-dev libsuitesparse-dev libzip-dev
+  libeigen3-dev libsuitesparse-dev libzip-dev libdeflate-dev
   libmrpt-dev mrpt-apps
   libopencv-dev
   libcli11-dev nlohmann-json3-dev libtbb-dev

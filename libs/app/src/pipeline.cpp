@@ -6,11 +6,14 @@
 
 #include <tbb/parallel_pipeline.h>
 
+#include "allocator_reuse.h"
+
 namespace dbacov::app {
 
 void runSnapshotPipeline(SnapshotStream& stream, std::size_t in_flight,
                          const std::function<void(PipelineItem&)>& compute,
                          const std::function<bool(PipelineItem&)>& consume) {
+  keepFreedMemoryForReuse();
   using Ptr = std::shared_ptr<PipelineItem>;
   // No exception may leave a filter: TBB would cancel the pipeline and drop (leak) the items in
   // flight. A failure stops the pipeline instead, and is rethrown once it has drained.

@@ -10,6 +10,7 @@
 #include <iterator>
 #include <limits>
 #include <stdexcept>
+#include <type_traits>
 
 #include "dbacov/io/atomic_file.h"
 #include "npy_internal.h"
@@ -60,6 +61,13 @@ T loadValue(const unsigned char* p) {
 /// Decodes every element of `a` (of C++ type T, stored as U bits) into Out.
 template <typename Out, typename T, typename U>
 std::vector<Out> decodeAll(const NpyArray& a, std::size_t n) {
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+  if constexpr (std::is_same_v<Out, T>) {  // the file's bytes are the host's values: one copy
+    std::vector<Out> out(n);
+    if (n) std::memcpy(out.data(), a.data.data(), n * sizeof(T));
+    return out;
+  }
+#endif
   std::vector<Out> out(n);
   for (std::size_t i = 0; i < n; ++i)
     out[i] = static_cast<Out>(loadValue<T, U>(&a.data[i * sizeof(T)]));
@@ -200,6 +208,44 @@ NpyArray readNpyStream(std::uint64_t available, const ByteReader& read,
   }
   unsigned char extra = 0;
   if (read(&extra, 1) != 0) throw InputError(context + ": more data than the header declares");
+  return a;
+}
+
+NpyArray parseNpyBuffer(std::vector<unsigned char> bytes, std::uint64_t available,
+                        const std::string& context) {
+  if (bytes.size() != available) {  // cut short: let the stream reader name what is missing
+    std::size_t at = 0;
+    return readNpyStream(
+        available,
+        [&](unsigned char* dst, std::size_t n) -> std::size_t {
+          n = std::min(n, bytes.size() - at);
+          std::copy_n(bytes.data() + at, n, dst);
+          at += n;
+          return n;
+        },
+        context);
+  }
+  // The same checks as readNpyStream, in the same order, on bytes in hand.
+  if (bytes.size() < 8)
+    throw InputError(context + ": truncated .npy data (" + std::to_string(bytes.size()) +
+                     " bytes)");
+  const std::size_t pre = npyPreambleSize(bytes.data(), 8, context);
+  if (bytes.size() < pre) throw InputError(context + ": truncated .npy preamble");
+  const std::size_t total = npyHeaderSize(bytes.data(), pre, context);
+  if (bytes.size() < total)
+    throw InputError(context + ": truncated .npy header (" + std::to_string(bytes.size()) +
+                     " bytes, the header needs " + std::to_string(total) + ")");
+  const NpyHeader h = parseNpyHeader(bytes.data(), total, context);
+  if (bytes.size() - h.data_offset != h.data_bytes)
+    throw InputError(context + ": declared shape " + shapeToString(h.shape) + " of " +
+                     dtypeName(h.dtype) + " needs " + std::to_string(h.data_bytes) +
+                     " data bytes, but " + std::to_string(bytes.size() - h.data_offset) +
+                     " are present");
+  NpyArray a;
+  a.dtype = h.dtype;
+  a.shape = h.shape;
+  bytes.erase(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(h.data_offset));
+  a.data = std::move(bytes);
   return a;
 }
 

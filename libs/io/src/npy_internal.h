@@ -57,4 +57,10 @@ using ByteReader = std::function<std::size_t(unsigned char* dst, std::size_t n)>
 /// and its declared size compared with `available` before the data buffer is allocated.
 NpyArray readNpyStream(std::uint64_t available, const ByteReader& read, const std::string& context);
 
+/// The same for a stream already in memory: `bytes` is what arrived of a container member that
+/// claims `available` bytes (fewer when it was cut short). Same checks and messages as
+/// readNpyStream; when complete, the data moves into the array without another buffer.
+NpyArray parseNpyBuffer(std::vector<unsigned char> bytes, std::uint64_t available,
+                        const std::string& context);
+
 }  // namespace dbacov::io

@@ -3,11 +3,16 @@
 
 #include <zip.h>
 
+#include <algorithm>
 #include <ctime>
+#include <exception>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 
+#include "dbacov/core/parallel.h"
 #include "dbacov/io/atomic_file.h"
+#include "member_inflate.h"
 #include "npy_internal.h"
 
 namespace dbacov::io {
@@ -122,10 +127,22 @@ bool NpzReader::has(const std::string& key) const {
   return zip_name_locate(impl_->zip.get(), (key + kSuffix).c_str(), 0) >= 0;
 }
 
-NpyArray NpzReader::read(const std::string& key) const {
+/// A member's raw (still compressed) bytes and what the archive records about it.
+struct NpzReader::RawMember {
+  std::string key;
+  std::string context;  ///< "<path>: key '<key>'"
+  std::vector<unsigned char> raw;
+  std::uint64_t size = 0;  ///< recorded uncompressed size
+  std::uint32_t crc = 0;   ///< recorded CRC-32
+  bool deflated = false;
+};
+
+NpzReader::RawMember NpzReader::fetch(const std::string& key) const {
   zip_t* za = impl_->zip.get();
-  const std::string context = impl_->path + ": key '" + key + "'";
-  auto fail = [&](const std::string& what) { throw InputError(context + ": " + what); };
+  RawMember m;
+  m.key = key;
+  m.context = impl_->path + ": key '" + key + "'";
+  auto fail = [&](const std::string& what) { throw InputError(m.context + ": " + what); };
 
   const zip_int64_t index = zip_name_locate(za, (key + kSuffix).c_str(), 0);
   if (index < 0) throw InputError(impl_->path + ": missing key '" + key + "'");
@@ -133,7 +150,8 @@ NpyArray NpzReader::read(const std::string& key) const {
   zip_stat_t st;
   zip_stat_init(&st);
   if (zip_stat_index(za, idx, 0, &st) != 0) fail(std::string("cannot stat: ") + zip_strerror(za));
-  const zip_uint64_t need = ZIP_STAT_SIZE | ZIP_STAT_COMP_SIZE | ZIP_STAT_COMP_METHOD;
+  const zip_uint64_t need =
+      ZIP_STAT_SIZE | ZIP_STAT_COMP_SIZE | ZIP_STAT_COMP_METHOD | ZIP_STAT_CRC;
   if ((st.valid & need) != need) fail("the archive does not record the member's sizes");
   if ((st.valid & ZIP_STAT_ENCRYPTION_METHOD) && st.encryption_method != ZIP_EM_NONE)
     fail("encrypted members are not supported");
@@ -158,17 +176,95 @@ NpyArray NpzReader::read(const std::string& key) const {
     fail("compression method " + std::to_string(st.comp_method) +
          " is not supported (expected stored or deflated, as NumPy writes)");
   }
+  m.size = st.size;
+  m.crc = st.crc;
+  m.deflated = st.comp_method == ZIP_CM_DEFLATE;
 
-  ZipFilePtr file(zip_fopen_index(za, idx, 0));
+  // The raw bytes as they are in the archive; libdeflate inflates and checks them as a whole
+  // (inflateMember), which is about twice as fast as libzip's streaming zlib.
+  ZipFilePtr file(zip_fopen_index(za, idx, ZIP_FL_COMPRESSED));
   if (!file) fail(std::string("cannot open member: ") + zip_strerror(za));
-  return readNpyStream(
-      st.size,
+  m.raw.resize(static_cast<std::size_t>(st.comp_size));
+  for (std::size_t done = 0; done < m.raw.size();) {
+    const zip_int64_t got = zip_fread(file.get(), m.raw.data() + done, m.raw.size() - done);
+    if (got < 0) fail(std::string("cannot read member: ") + zip_file_strerror(file.get()));
+    if (got == 0) fail("cannot read member: Premature end of file");
+    done += static_cast<std::size_t>(got);
+  }
+  return m;
+}
+
+std::optional<NpyArray> NpzReader::decode(RawMember m) {
+  InflatedMember in = inflateMember(m.raw.data(), m.raw.size(), m.size, m.crc, m.deflated);
+  if (in.status != InflateStatus::Ok) return std::nullopt;
+  m.raw = std::vector<unsigned char>();
+  return parseNpyBuffer(std::move(in.bytes), m.size, m.context);
+}
+
+NpyArray NpzReader::readStreaming(const std::string& key) const {
+  // The damaged-member path: libzip's streaming zlib, whose messages say where the damage shows
+  // first (a bad .npy header, truncated data, the CRC at the end).
+  const RawMember checked = fetch(key);  // the same checks, in the same order
+  zip_t* za = impl_->zip.get();
+  auto fail = [&](const std::string& what) { throw InputError(checked.context + ": " + what); };
+  const zip_int64_t index = zip_name_locate(za, (key + kSuffix).c_str(), 0);
+  ZipFilePtr file(zip_fopen_index(za, static_cast<zip_uint64_t>(index), 0));
+  if (!file) fail(std::string("cannot open member: ") + zip_strerror(za));
+  NpyArray a = readNpyStream(
+      checked.size,
       [&](unsigned char* dst, std::size_t n) -> std::size_t {
         const zip_int64_t got = zip_fread(file.get(), dst, n);
         if (got < 0) fail(std::string("cannot read member: ") + zip_file_strerror(file.get()));
         return static_cast<std::size_t>(got);
       },
-      context);
+      checked.context);
+  // libdeflate refused the member but zlib did not: refuse it all the same.
+  fail("cannot read member: the deflate stream or its CRC-32 is damaged");
+  return a;
+}
+
+NpyArray NpzReader::read(const std::string& key) const {
+  std::optional<NpyArray> a = decode(fetch(key));
+  return a ? std::move(*a) : readStreaming(key);
+}
+
+std::vector<NpyArray> NpzReader::readAll(const std::vector<std::string>& keys) const {
+  // The archive handle is serial: fetch the raw members in order (stopping at the first failure),
+  // then inflate and parse them in parallel. The first failure in key order is the one reported,
+  // as a serial read() of each key would.
+  std::vector<RawMember> raw;
+  std::exception_ptr fetch_failure;
+  for (const std::string& key : keys) {
+    try {
+      raw.push_back(fetch(key));
+    } catch (...) {
+      fetch_failure = std::current_exception();
+      break;
+    }
+  }
+  std::vector<std::optional<NpyArray>> decoded(raw.size());
+  std::vector<std::exception_ptr> failures(raw.size());
+  // Largest first, so that the biggest member starts at once on a free thread.
+  std::vector<std::size_t> order(raw.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return raw[a].size > raw[b].size; });
+  parallelFor(order.size(), [&](std::size_t o) {
+    const std::size_t i = order[o];
+    try {
+      decoded[i] = decode(std::move(raw[i]));
+    } catch (...) {
+      failures[i] = std::current_exception();
+    }
+  });
+  std::vector<NpyArray> out;
+  out.reserve(keys.size());
+  for (std::size_t i = 0; i < decoded.size(); ++i) {
+    if (failures[i]) std::rethrow_exception(failures[i]);
+    out.push_back(decoded[i] ? std::move(*decoded[i]) : readStreaming(keys[i]));
+  }
+  if (fetch_failure) std::rethrow_exception(fetch_failure);
+  return out;
 }
 
 NpzWriter::NpzWriter(std::string path, bool compressed)

@@ -19,14 +19,13 @@ class SnapshotReader {
 
   std::string context(const std::string& key) const { return path_ + ": key '" + key + "'"; }
 
-  NpyArray required(const std::string& key) const {
+  void requireKey(const std::string& key) const {
     if (!npz_.has(key))
       throw InputError(path_ + ": missing required key '" + key + "' (conventions §1)");
-    return npz_.read(key);
   }
-  std::optional<NpyArray> optional(const std::string& key) const {
-    if (!npz_.has(key)) return std::nullopt;
-    return npz_.read(key);
+  bool hasKey(const std::string& key) const { return npz_.has(key); }
+  std::vector<NpyArray> readAll(const std::vector<std::string>& keys) const {
+    return npz_.readAll(keys);
   }
 
   /// Throws unless a.shape == expected. `pattern` is the symbolic shape ("(E,2,H,W)"), shown when
@@ -62,11 +61,22 @@ class SnapshotReader {
 /// Reads and checks every key of the archive `npz` (conventions §1); `path` names it in messages.
 Snapshot readSnapshot(const std::string& path, NpzReader npz, std::int64_t index) {
   const SnapshotReader r(path, std::move(npz));
-  const NpyArray poses = r.required("poses"), disps = r.required("disps"),
-                 intrinsics = r.required("intrinsics"), ii = r.required("ii"),
-                 jj = r.required("jj"), target = r.required("target"),
-                 weight = r.required("weight"), tstamp = r.required("tstamp");
-  const std::optional<NpyArray> timestamps_s = r.optional("timestamps_s"), id = r.optional("id");
+  // Every member in one readAll (inflated in parallel); a missing required key is reported first,
+  // in the order of the list, as reading them one by one did.
+  std::vector<std::string> keys = {"poses", "disps",  "intrinsics", "ii",
+                                   "jj",    "target", "weight",     "tstamp"};
+  for (const std::string& key : keys) r.requireKey(key);
+  const bool has_timestamps = r.hasKey("timestamps_s"), has_id = r.hasKey("id");
+  if (has_timestamps) keys.push_back("timestamps_s");
+  if (has_id) keys.push_back("id");
+  std::vector<NpyArray> arrays = r.readAll(keys);
+  const NpyArray poses = std::move(arrays[0]), disps = std::move(arrays[1]),
+                 intrinsics = std::move(arrays[2]), ii = std::move(arrays[3]),
+                 jj = std::move(arrays[4]), target = std::move(arrays[5]),
+                 weight = std::move(arrays[6]), tstamp = std::move(arrays[7]);
+  std::optional<NpyArray> timestamps_s, id;
+  if (has_timestamps) timestamps_s = std::move(arrays[8]);
+  if (has_id) id = std::move(arrays[has_timestamps ? 9 : 8]);
 
   // Shapes first (cheap, and the most useful message), then dtypes through the conversions.
   r.expectNdim("poses", poses, 2, "(N,7)");

@@ -11,6 +11,11 @@
 //     compressed size (equal when stored, at most deflate's 1032:1 ratio when deflated), and the
 //     .npy header's declared shape × itemsize against the member size; the CRC is verified at the
 //     end. Every error names the archive path and the key: "droid.npz: key 'target': ...".
+//     Members are inflated whole with libdeflate (CRC-32 checked on the whole member); a member
+//     that fails is read again through libzip's stream, whose message says where it breaks.
+//   - readAll(keys) reads several members: the raw bytes in order, then inflation and parsing in
+//     parallel (dbacov::parallelFor, within the ThreadLimit); it reports the failure that reading
+//     the keys one by one would report first.
 //   - Not thread-safe (one libzip handle); use one reader per thread.
 //
 // NpzWriter contract: collects arrays, then commit() writes the archive atomically (see
@@ -23,6 +28,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -57,9 +63,17 @@ class NpzReader {
   /// Reads and parses `<key>.npy`. Throws InputError naming path and key if it is missing,
   /// too large, damaged (CRC, truncated) or not an accepted .npy array (see npy.h).
   NpyArray read(const std::string& key) const;
+  /// read() of every key, the members inflated in parallel; results in the order of `keys`.
+  std::vector<NpyArray> readAll(const std::vector<std::string>& keys) const;
 
  private:
   struct Impl;
+  struct RawMember;
+  RawMember fetch(const std::string& key) const;  ///< checks, then the member's raw bytes
+  /// Inflates, verifies and parses (thread-safe); nullopt when the member is damaged.
+  static std::optional<NpyArray> decode(RawMember m);
+  /// Reads a damaged member through libzip's stream, for its precise message; always throws.
+  NpyArray readStreaming(const std::string& key) const;
   explicit NpzReader(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };

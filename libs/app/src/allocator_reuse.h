@@ -1,0 +1,14 @@
+// Private to dbacov_app: keep freed snapshot buffers for the next snapshot (issue 19).
+#pragma once
+
+namespace dbacov::app {
+
+/// Once per process: glibc's malloc serves the multi-megabyte buffers of each snapshot (inflated
+/// members, arrays, linearization) from its heap instead of fresh mmap()s, and keeps freed memory
+/// instead of returning it to the system after every snapshot. Every snapshot after the first
+/// then reuses pages already mapped instead of faulting in and zeroing new ones (31 000 → 7 000
+/// page faults for 20 snapshots). The peak stays that of the largest snapshots in flight. No-op
+/// without glibc.
+void keepFreedMemoryForReuse();
+
+}  // namespace dbacov::app

@@ -1,0 +1,175 @@
+// The gzip members of GzOutputStream (issue 19: each inflated whole with libdeflate on reading):
+// members that carry their size, read back by zlib and by GzInputStream; another writer's member
+// after ours read through zlib; damage and a cut between two members are read errors, not ends.
+#include <zlib.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "gz_streams.h"
+#include "temp_dir.h"
+
+namespace dbacov {
+namespace {
+
+using mrpt_bridge::GzInputStream;
+using mrpt_bridge::GzOutputStream;
+
+/// Compressible but not trivial: a slow random walk of bytes.
+std::vector<unsigned char> walk(std::size_t n, std::uint32_t seed) {
+  std::vector<unsigned char> v(n);
+  std::uint32_t x = seed;
+  unsigned char b = 0;
+  for (auto& c : v) {
+    x = x * 1103515245u + 12345u;
+    b = static_cast<unsigned char>(b + ((x >> 28) & 3) - 1);
+    c = b;
+  }
+  return v;
+}
+
+std::vector<unsigned char> fileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<unsigned char>(std::istreambuf_iterator<char>(in), {});
+}
+void putBytes(const std::string& path, const std::vector<unsigned char>& b) {
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
+}
+
+/// Everything GzInputStream gives, in reads of odd sizes; *error when a read failed.
+std::vector<unsigned char> readAllOf(const std::string& path, bool* error) {
+  GzInputStream in(path);
+  std::vector<unsigned char> out;
+  std::vector<unsigned char> buf(70001);
+  *error = false;
+  for (;;) {
+    const std::size_t n = in.Read(buf.data(), buf.size());
+    if (n == static_cast<std::size_t>(-1)) {
+      *error = true;
+      break;
+    }
+    if (n == 0) break;
+    out.insert(out.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(n));
+  }
+  EXPECT_EQ(in.getPosition(), out.size());
+  return out;
+}
+
+/// Offsets of the members in `file` (each starts with the 'DB' size subfield).
+std::vector<std::size_t> members(const std::vector<unsigned char>& file) {
+  std::vector<std::size_t> at;
+  for (std::size_t p = 0; p + 24 <= file.size();) {
+    EXPECT_EQ(file[p], 0x1f);
+    EXPECT_EQ(file[p + 12], 'D');
+    EXPECT_EQ(file[p + 13], 'B');
+    at.push_back(p);
+    p += file[p + 16] | file[p + 17] << 8 | file[p + 18] << 16 | std::size_t{file[p + 19]} << 24;
+  }
+  return at;
+}
+
+std::vector<unsigned char> writeOurs(const std::string& path, std::size_t n) {
+  const std::vector<unsigned char> data = walk(n, 99);
+  GzOutputStream out(path, path);
+  for (std::size_t at = 0; at < n; at += 100000)  // several writes across member boundaries
+    out.Write(data.data() + at, std::min<std::size_t>(100000, n - at));
+  EXPECT_EQ(out.getPosition(), n);
+  out.close();
+  return data;
+}
+
+TEST(GzBlocks, MembersCarryTheirSizeAndBothReadersReadThem) {
+  testing::TempDir dir;
+  const std::string path = dir.file("a.gz");
+  const std::vector<unsigned char> data = writeOurs(path, 3000000);
+  const std::vector<unsigned char> file = fileBytes(path);
+  const std::vector<std::size_t> at = members(file);
+  // 8, 16, ..., 256 KiB, then 256 KiB members: 3 MB need 16 of them.
+  EXPECT_EQ(at.size(), 16u);
+  EXPECT_EQ(file[at.back() + 20] & 1, 1) << "the last member is marked";
+  EXPECT_EQ(file[at.front() + 20] & 1, 0);
+  gzFile gz = gzopen(path.c_str(), "rb");
+  ASSERT_NE(gz, nullptr);
+  std::vector<unsigned char> back(data.size() + 10);
+  EXPECT_EQ(gzread(gz, back.data(), static_cast<unsigned>(back.size())),
+            static_cast<int>(data.size()));
+  gzclose(gz);
+  back.resize(data.size());
+  EXPECT_EQ(back, data);
+  bool error = true;
+  EXPECT_EQ(readAllOf(path, &error), data);
+  EXPECT_FALSE(error);
+  // An empty output is one (empty, last) member.
+  writeOurs(dir.file("empty.gz"), 0);
+  EXPECT_TRUE(readAllOf(dir.file("empty.gz"), &error).empty());
+  EXPECT_FALSE(error);
+}
+
+TEST(GzBlocks, AnotherWritersMemberAfterOursAndOtherFilesGoThroughZlib) {
+  testing::TempDir dir;
+  const std::string path = dir.file("a.gz");
+  std::vector<unsigned char> data = writeOurs(path, 500000);
+  const std::vector<unsigned char> tail = walk(200000, 5);
+  gzFile gz = gzopen(path.c_str(), "ab");  // zlib appends a member of its own
+  ASSERT_NE(gz, nullptr);
+  ASSERT_EQ(gzwrite(gz, tail.data(), static_cast<unsigned>(tail.size())),
+            static_cast<int>(tail.size()));
+  ASSERT_EQ(gzclose(gz), Z_OK);
+  data.insert(data.end(), tail.begin(), tail.end());
+  bool error = true;
+  EXPECT_EQ(readAllOf(path, &error), data);
+  EXPECT_FALSE(error);
+  // zlib's gzip alone, and a plain (uncompressed) file
+  gz = gzopen(dir.file("z.gz").c_str(), "wb");
+  gzwrite(gz, tail.data(), static_cast<unsigned>(tail.size()));
+  gzclose(gz);
+  EXPECT_EQ(readAllOf(dir.file("z.gz"), &error), tail);
+  EXPECT_FALSE(error);
+  putBytes(dir.file("plain"), tail);
+  EXPECT_EQ(readAllOf(dir.file("plain"), &error), tail);
+  EXPECT_FALSE(error);
+}
+
+TEST(GzBlocks, DamageAndACutBetweenMembersAreReadErrors) {
+  testing::TempDir dir;
+  const std::string path = dir.file("a.gz");
+  const std::vector<unsigned char> data = writeOurs(path, 1000000);
+  const std::vector<unsigned char> file = fileBytes(path);
+  const std::vector<std::size_t> at = members(file);
+  ASSERT_GE(at.size(), 4u);
+  struct Case {
+    const char* name;
+    std::vector<unsigned char> bytes;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"cut after the third member", {file.begin(), file.begin() + at[3]}});
+  cases.push_back({"cut inside the third member", {file.begin(), file.begin() + at[2] + 1000}});
+  cases.push_back({"cut inside a header", {file.begin(), file.begin() + at[3] + 10}});
+  std::vector<unsigned char> flipped = file;
+  flipped[at[2] + 3000] ^= 0x10;
+  cases.push_back({"a flipped byte in the third member", flipped});
+  std::vector<unsigned char> crc = file;
+  crc[at[3] - 8] ^= 0x01;  // the third member's CRC-32
+  cases.push_back({"a wrong CRC-32", crc});
+  std::vector<unsigned char> size = file;
+  size[at[2] + 16] ^= 0x01;  // the third member's recorded size
+  cases.push_back({"a wrong member size", size});
+  const std::size_t before_third = 8192 + 16384;  // uncompressed bytes of the first two members
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    putBytes(dir.file("bad.gz"), c.bytes);
+    bool error = false;
+    const std::vector<unsigned char> got = readAllOf(dir.file("bad.gz"), &error);
+    EXPECT_TRUE(error);
+    ASSERT_GE(got.size(), before_third);
+    EXPECT_TRUE(std::equal(got.begin(), got.end(), data.begin())) << "what was read is the data";
+  }
+}
+
+}  // namespace
+}  // namespace dbacov
