@@ -8,6 +8,7 @@
 
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/marginal_solver.h"
+#include "given_marginal_solver.h"
 
 namespace dbacov {
 
@@ -69,18 +70,24 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   m.T_wc.assign(snapshot.numKeyframes(), Eigen::Isometry3d::Identity());
   for (int k : m.ne.keyframes) m.T_wc[k] = snapshot.T_wc(k);
 
-  switch (so.kind) {
-    case SolverKind::Sparse:
-      m.solver = makeCholmodMarginalSolver(so.ordering);
-      break;
-    case SolverKind::Dense:
-      m.solver = makeDenseMarginalSolver();
-      break;
+  if (so.reduced_covariance) {
+    // A given covariance (self-calibration's sandwich) instead of S⁻¹.
+    m.solver = makeGivenMarginalSolver(*so.reduced_covariance, m.gauge.dim());
+  } else {
+    switch (so.kind) {
+      case SolverKind::Sparse:
+        m.solver = makeCholmodMarginalSolver(so.ordering);
+        break;
+      case SolverKind::Dense:
+        m.solver = makeDenseMarginalSolver();
+        break;
+    }
   }
   try {
     // A gauge that fixes every keyframe (two keyframes, hard two-pose gauge) leaves nothing free:
     // every covariance is zero and there is nothing to factorize.
-    if (m.gauge.dim() > 0) m.solver->factorize(reduceSystem(m.ne.S, m.gauge));
+    if (m.gauge.dim() > 0 && !so.reduced_covariance)
+      m.solver->factorize(reduceSystem(m.ne.S, m.gauge));
   } catch (const FactorizationError& e) {
     std::vector<int> kf;
     if (e.column() >= 0) {
