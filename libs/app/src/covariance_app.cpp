@@ -14,6 +14,7 @@
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/parallel.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "self_calibration_cli.h"
 #include "visual_cli.h"
 
 namespace dbacov::app {
@@ -161,12 +162,16 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   bool fail_fast = false;
   detail::addFailurePolicyOptions(cli, fail_fast);
   detail::addVisualOptions(cli, visual);
+  detail::SelfCalibrationCli selfcal_cli;  // --self-calibrate, --edge-csv, --converge
+  detail::addSelfCalibrationOptions(cli, selfcal_cli, true);
 
   DbaOptions engine;
+  std::unique_ptr<detail::SelfCalibrationRun> selfcal;
   try {
     cli.parse(argc, argv);
     engine = opt.engineOptions();
     detail::finishVisualOptions(visual);
+    selfcal = std::make_unique<detail::SelfCalibrationRun>(selfcal_cli);
     if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
         opt.rawlog_path.empty() && opt.graph_prefix.empty() && !visual.any())
       throw std::invalid_argument(
@@ -224,7 +229,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
             try {
               if (opt.fps) deriveKeyframeTimes(s, *opt.fps);
               for (const auto& sink : sinks) sink->check(s);
-              auto cov = std::make_unique<DbaCovariance>(s, engine, solver);
+              auto cov = selfcal->active() ? selfcal->covariance(s, engine, solver)
+                                           : std::make_unique<DbaCovariance>(s, engine, solver);
               for (const auto& sink : sinks) sink->verify(s, *cov);
               item.cov = std::move(cov);
             } catch (const std::exception& e) {
@@ -277,6 +283,12 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
           if (policy == FailurePolicy::FailFast) break;
         }
       }
+      try {
+        selfcal->commit();  // --edge-csv
+      } catch (const std::exception& e) {
+        err << "dba-covariance: error: " << e.what() << '\n';
+        sum.outputNotWritten();
+      }
       if (graph && graph->uninformativePairs() && !opt.quiet)
         err << "dba-covariance: note: " << graph->uninformativePairs()
             << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative "
@@ -285,6 +297,11 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   } catch (const std::exception& e) {
     err << "dba-covariance: error: " << e.what() << '\n';
     return 1;
+  }
+  if (!opt.quiet && selfcal) {
+    for (const std::string& w : selfcal->warnings())
+      err << "dba-covariance: warning: " << w << '\n';
+    if (selfcal->active()) err << "dba-covariance: " << selfcal->summaryLine() << '\n';
   }
   if (!opt.quiet) {
     err << "dba-covariance: " << sum.line();

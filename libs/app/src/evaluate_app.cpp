@@ -12,6 +12,7 @@
 #include "dbacov/app/scenario_options.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/monte_carlo.h"
+#include "self_calibration_cli.h"
 
 namespace dbacov::app {
 namespace {
@@ -215,6 +216,9 @@ int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::os
                  "Write every sample: section,run,group,dof,nees,e_0..e_5,sigma_0..sigma_5");
   cli.add_flag("-q,--quiet", o.quiet, "No progress display");
   o.scenario.add(cli);
+  detail::SelfCalibrationCli selfcal_cli;  // Monte Carlo: self-calibrated covariances
+  detail::addSelfCalibrationOptions(cli, selfcal_cli, false);
+  std::optional<SelfCalibrationOptions> selfcal;
   cli.get_option("--weight-scale")
       ->description(
           "Weight scale of the covariances: Monte Carlo, the simulation's (default 4); files, the "
@@ -228,6 +232,13 @@ int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::os
     if (o.calibration_runs > 0 && o.inflation)
       throw std::invalid_argument("give either --calibration-runs or --inflation");
     if (o.monte_carlo > 0) config = o.scenario.resolve();
+    if (selfcal_cli.enabled) {
+      if (o.monte_carlo == 0)
+        throw std::invalid_argument(
+            "--self-calibrate applies to --monte-carlo only (dba-covariance --self-calibrate "
+            "computes self-calibrated files)");
+      selfcal = selfcal_cli.options();
+    }
   } catch (...) {
     return detail::usageExitStatus(cli, "dba-evaluate", out, err);
   }
@@ -250,10 +261,11 @@ int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::os
       auto describe = [&](int a, int b) {
         return "runs " + std::to_string(a) + ".." + std::to_string(b - 1);
       };
-      const sim::MonteCarloResult eval =
-          sim::runMonteCarlo(sc, first + M, o.monte_carlo - M, engine, pairs, step);
+      const sim::MonteCarloResult eval = sim::runMonteCarlo(
+          sc, first + M, o.monte_carlo - M, engine, pairs, step, selfcal ? &*selfcal : nullptr);
       std::optional<sim::MonteCarloResult> fit;
-      if (M > 0) fit = sim::runMonteCarlo(sc, first, M, engine, pairs, step);
+      if (M > 0)
+        fit = sim::runMonteCarlo(sc, first, M, engine, pairs, step, selfcal ? &*selfcal : nullptr);
       progress.clear();
       const int bad = eval.not_converged + (fit ? fit->not_converged : 0);
       if (bad) err << "dba-evaluate: warning: " << bad << " DBA solves did not converge\n";

@@ -165,7 +165,7 @@ double autocorrelationSum(const std::vector<double> z[2], const std::vector<char
 
 /// One pass over every edge at the snapshot's state and weights, with the model's Σ.
 std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const DenseModel& m,
-                                bool autocorr, int L) {
+                                bool autocorr, int L, bool info_metric) {
   const int E = s.numEdges(), n = static_cast<int>(m.ne.keyframes.size());
   const int HW = static_cast<int>(s.pixelsPerFrame());
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
@@ -280,7 +280,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         if (hk[k] > o.depth_info_eps) a.tr_SD += C.col(k).dot(Sig * C.col(k)) / hk[k];
       // The same statistic in the edge's own information metric: g_eᵀ I_e⁺ g_e, expectation
       // rank(I_e) − tr(I_e⁺ D_e) − tr(Σ I_e).
-      {
+      if (info_metric) {
         const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(I);
         const Eigen::VectorXd& ev = eig.eigenvalues();
         const double cut = 1e-10 * std::max(ev.maxCoeff(), 0.0);
@@ -365,8 +365,9 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
     const Snapshot inflated = it == 0 ? Snapshot() : inflateWeights(s, infl);
     const Snapshot& cur = it == 0 ? s : inflated;
     const DenseModel model = buildModel(cur, o);
-    const std::vector<EdgeAccum> acc = edgePass(
-        cur, o, model, last && c.method == SelfCalibrationMethod::Autocorr, c.autocorr_lag);
+    const std::vector<EdgeAccum> acc =
+        edgePass(cur, o, model, last && c.method == SelfCalibrationMethod::Autocorr, c.autocorr_lag,
+                 c.score_metric == ScoreMetric::Information);
     ++out.passes;
     if (it == 0) {
       out.optimum = optimumDistance(model);

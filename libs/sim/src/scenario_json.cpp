@@ -171,6 +171,11 @@ void applyScenarioJson(const std::string& text, const std::string& source, Scena
     o.getEnum<NoiseModel::Type>("model", c.noise.type, parseNoiseType);
     o.get("correlation_length_px", c.noise.correlation_length_px);
     o.get("amplitude", c.noise.amplitude);
+    o.get("affine_px", c.noise.affine_px);
+    o.get("field_px", c.noise.field_px);
+    o.get("field_length_px", c.noise.field_length_px);
+    o.get("outlier_fraction", c.noise.outlier_fraction);
+    o.get("outlier_factor", c.noise.outlier_factor);
   });
   r.object("gauge", [&](Reader& o) {
     o.getEnum<GaugeOptions::Type>("type", c.gauge.type, [](const std::string& n) {
@@ -258,7 +263,12 @@ std::string scenarioConfigToJson(const ScenarioConfig& c) {
       {"noise",
        {{"model", toString(c.noise.type)},
         {"correlation_length_px", c.noise.correlation_length_px},
-        {"amplitude", c.noise.amplitude}}},
+        {"amplitude", c.noise.amplitude},
+        {"affine_px", c.noise.affine_px},
+        {"field_px", c.noise.field_px},
+        {"field_length_px", c.noise.field_length_px},
+        {"outlier_fraction", c.noise.outlier_fraction},
+        {"outlier_factor", c.noise.outlier_factor}}},
       {"gauge",
        {{"type", c.gauge.type == GaugeOptions::Type::Minimal ? "minimal" : "two-pose"},
         {"sigma_rot", c.gauge.sigma_rot},

@@ -34,11 +34,11 @@
 //             c_k = Σ_{rows of e at pixel k} λ J_d v (what the shared depth takes out of the edge's
 //             score) and the last term what the poses take out. It measures the edge's error in
 //             the pose directions that the covariance weighs, whatever its spatial structure
-//             (a scalar cluster-robust estimate). With score_metric Information (default) the
-//             statistic is g_eᵀ I_e⁺ g_e instead, expectation rank(I_e) − tr(I_e⁺ D_e) −
-//             tr(Σ I_e): far more degrees of freedom per edge. The ratio has few degrees of freedom
-//             (ν_e = tr(ΣI_e)² / tr((ΣI_e)²)), so it is shrunk towards the ratio pooled over all
-//             edges (score_prior_dof); iterated like vce.
+//             (a scalar cluster-robust estimate). With score_metric Information (Covariance is the
+//             default) the statistic is g_eᵀ I_e⁺ g_e instead, expectation rank(I_e) − tr(I_e⁺ D_e)
+//             − tr(Σ I_e): far more degrees of freedom per edge. The ratio has few degrees of
+//             freedom (ν_e = tr(ΣI_e)² / tr((ΣI_e)²)), so it is shrunk towards the ratio pooled
+//             over all edges (score_prior_dof); iterated like vce.
 //   sandwich  the cluster-robust covariance Σ (Σ_e g_e g_eᵀ / f_e) Σ with clusters = edges, in
 //             the gauge's reduced coordinates, and the small-sample correction
 //             f_e = E[g_eᵀ Σ g_e] / tr(Σ I_e) (what the fit takes out of each cluster's score;
@@ -75,14 +75,14 @@ enum class ScoreMetric { Information, Covariance };
 
 struct SelfCalibrationOptions {
   SelfCalibrationMethod method = SelfCalibrationMethod::Score;
-  int iterations = 2;    ///< reweighting passes of vce / score / autocorr (>= 1)
+  int iterations = 1;    ///< reweighting passes of vce / score / autocorr (>= 1)
   int autocorr_lag = 4;  ///< L of autocorr (>= 1)
   /// score: prior degrees of freedom ν₀ of the shrinkage of an edge's score ratio κ_e/scale_e
   /// (ν_e degrees of freedom) towards the pooled ratio: (ν_e ratio_e + ν₀ pooled)/(ν_e + ν₀).
   double score_prior_dof = 30.0;
-  ScoreMetric score_metric = ScoreMetric::Information;
-  double min_inflation = 1e-4;  ///< inflations are clamped to [min, max]
-  double max_inflation = 1e8;
+  ScoreMetric score_metric = ScoreMetric::Covariance;
+  double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
+  double max_inflation = 1e9;
   /// Throws std::invalid_argument for values out of their domain.
   void validate() const;
 };
