@@ -11,6 +11,7 @@
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/threads.h"
 #include "engine_cli.h"
+#include "self_calibration_cli.h"
 #include "visual_cli.h"
 
 namespace dbacov::app {
@@ -100,6 +101,7 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
   bool fail_fast = false;
   detail::addFailurePolicyOptions(cli, fail_fast);
   detail::addVisualOptions(cli, visual);
+  detail::addSelfCalibrationOptions(cli, opt.self_calibration, true);
   try {
     cli.parse(argc, argv);
     opt.engine.resolve();  // refuses invalid and contradicting engine options as bad usage
@@ -107,6 +109,7 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
     opt.scene = visual.scene;
     opt.plots_dir = visual.plots_dir;
     opt.policy = fail_fast ? FailurePolicy::FailFast : FailurePolicy::KeepGoing;
+    detail::SelfCalibrationRun check(opt.self_calibration);  // bad method, --edge-csv alone
     if (!opt.anyOutput())
       throw std::invalid_argument(
           "no output requested: give -o, --csv, --relative-csv, "
@@ -145,7 +148,11 @@ Sinks makeSinks(const CovarianceAppOptions& opt, GraphSink** graph) {
 class Run {
  public:
   Run(const CovarianceAppOptions& opt, Sinks sinks, std::ostream& err)
-      : opt_(opt), sinks_(std::move(sinks)), broken_(sinks_.size(), false), err_(err) {}
+      : opt_(opt),
+        sinks_(std::move(sinks)),
+        broken_(sinks_.size(), false),
+        err_(err),
+        selfcal_(opt.self_calibration) {}
 
   /// Stage 3: snapshots are independent: computed in parallel, handed to the sinks in order.
   void pipeline(const SnapshotInputs& inputs, const DbaOptions& engine) {
@@ -180,6 +187,12 @@ class Run {
         if (opt_.policy == FailurePolicy::FailFast) break;
       }
     }
+    try {
+      selfcal_.commit();  // --edge-csv
+    } catch (const std::exception& e) {
+      err_ << "dba-covariance: error: " << e.what() << '\n';
+      sum_.outputNotWritten();
+    }
     if (graph && graph->uninformativePairs() && !opt_.quiet)
       err_ << "dba-covariance: note: " << graph->uninformativePairs()
            << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative "
@@ -188,6 +201,11 @@ class Run {
 
   /// The summary line and the exit status.
   int finish() {
+    if (!opt_.quiet) {
+      for (const std::string& w : selfcal_.warnings())
+        err_ << "dba-covariance: warning: " << w << '\n';
+      if (selfcal_.active()) err_ << "dba-covariance: " << selfcal_.summaryLine() << '\n';
+    }
     if (!opt_.quiet) {
       err_ << "dba-covariance: " << sum_.line();
       if (opt_.policy == FailurePolicy::FailFast && sum_.failed())
@@ -203,13 +221,13 @@ class Run {
   }
 
   /// On a worker thread: the covariances, checked by every sink before any sink takes them.
-  void compute(PipelineItem& item, const DbaOptions& engine,
-               const CovarianceOptions& covariance) const {
+  void compute(PipelineItem& item, const DbaOptions& engine, const CovarianceOptions& covariance) {
     Snapshot& s = item.input.snapshot;
     try {
       if (opt_.fps) deriveKeyframeTimes(s, *opt_.fps);
       for (const auto& sink : sinks_) sink->check(s);
-      auto cov = std::make_unique<DbaCovariance>(s, engine, covariance);
+      auto cov = selfcal_.active() ? selfcal_.covariance(s, engine, covariance)
+                                   : std::make_unique<DbaCovariance>(s, engine, covariance);
       for (const auto& sink : sinks_) sink->verify(s, *cov);
       item.cov = std::move(cov);
     } catch (const std::exception& e) {
@@ -261,13 +279,15 @@ class Run {
   std::ostream& err_;
   Progress* progress_ = nullptr;
   RunSummary sum_;
+  detail::SelfCalibrationRun selfcal_;  ///< --self-calibrate, --converge, --edge-csv
 };
 
 }  // namespace
 
 bool CovarianceAppOptions::anyOutput() const {
-  return !csv_path.empty() || !relative_csv_path.empty() || !depth_sigma_dir.empty() ||
-         !rawlog_path.empty() || !graph_prefix.empty() || scene.enabled() || !plots_dir.empty();
+  return !csv_path.empty() || !self_calibration.edge_csv.empty() || !relative_csv_path.empty() ||
+         !depth_sigma_dir.empty() || !rawlog_path.empty() || !graph_prefix.empty() ||
+         scene.enabled() || !plots_dir.empty();
 }
 
 int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
@@ -276,6 +296,7 @@ int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
     engine = opt.engine.resolve();
     opt.scene.validate();
     if (!opt.anyOutput()) throw std::invalid_argument("no output requested");
+    detail::SelfCalibrationRun check(opt.self_calibration);
   } catch (const std::exception& e) {
     err << "dba-covariance: " << e.what() << '\n';
     return 2;

@@ -12,6 +12,7 @@
 #include "dbacov/app/scenario_options.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/monte_carlo.h"
+#include "self_calibration_cli.h"
 
 namespace dbacov::app {
 namespace {
@@ -49,6 +50,13 @@ usage.)";
 
 /// Checks the combination of options; throws std::invalid_argument with the reason.
 void checkUsage(const EvaluateOptions& o) {
+  if (o.self_calibration.enabled) {
+    if (o.monte_carlo == 0)
+      throw std::invalid_argument(
+          "--self-calibrate applies to --monte-carlo only (dba-covariance --self-calibrate "
+          "computes self-calibrated files)");
+    o.self_calibration.options();  // refuses an unknown method
+  }
   for (const char* flag : {"--fps", "--start-time", "--weight-scale"})
     o.scenario.number(flag);  // a malformed number is bad usage, found before any work
   if (o.calibrate && o.inflation)
@@ -195,10 +203,13 @@ std::vector<ReportSection> monteCarloSections(const EvaluateOptions& o,
   auto describe = [&](int a, int b) {
     return "runs " + std::to_string(a) + ".." + std::to_string(b - 1);
   };
+  std::optional<SelfCalibrationOptions> selfcal;
+  if (o.self_calibration.enabled) selfcal = o.self_calibration.options();
+  const SelfCalibrationOptions* sc_options = selfcal ? &*selfcal : nullptr;
   const sim::MonteCarloResult eval =
-      sim::runMonteCarlo(sc, first + M, o.monte_carlo - M, engine, pairs, step);
+      sim::runMonteCarlo(sc, first + M, o.monte_carlo - M, engine, pairs, step, sc_options);
   std::optional<sim::MonteCarloResult> fit;
-  if (M > 0) fit = sim::runMonteCarlo(sc, first, M, engine, pairs, step);
+  if (M > 0) fit = sim::runMonteCarlo(sc, first, M, engine, pairs, step, sc_options);
   progress.clear();
   const int bad = eval.not_converged + (fit ? fit->not_converged : 0);
   if (bad) err << "dba-evaluate: warning: " << bad << " DBA solves did not converge\n";
@@ -278,6 +289,7 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
                  "Write every sample: section,run,group,dof,nees,e_0..e_5,sigma_0..sigma_5");
   cli.add_flag("-q,--quiet", o.quiet, "No progress display");
   o.scenario.add(cli);
+  detail::addSelfCalibrationOptions(cli, o.self_calibration, false);  // Monte Carlo only
   cli.get_option("--weight-scale")
       ->description(
           "Weight scale of the covariances: Monte Carlo, the simulation's (default 4); files, the "

@@ -10,6 +10,7 @@
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/marginal_solver.h"
+#include "given_marginal_solver.h"
 
 namespace dbacov {
 
@@ -76,24 +77,30 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   m.gauge = makeGauge(options.gauge, snapshot, m.ne.keyframes);
   checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
   // The reduced system lives only until it is factorized (it is as large as S).
-  Eigen::SparseMatrix<double> S_reduced =
-      m.gauge.dim() > 0 ? reduceSystem(m.ne.S, m.gauge) : Eigen::SparseMatrix<double>();
+  Eigen::SparseMatrix<double> S_reduced = m.gauge.dim() > 0 && !so.reduced_covariance
+                                              ? reduceSystem(m.ne.S, m.gauge)
+                                              : Eigen::SparseMatrix<double>();
   const auto t2 = Clock::now();
   m.T_wc.assign(snapshot.numKeyframes(), Eigen::Isometry3d::Identity());
   for (int k : m.ne.keyframes) m.T_wc[k] = snapshot.T_wc(k);
 
-  switch (so.kind) {
-    case SolverKind::Sparse:
-      m.solver = makeCholmodMarginalSolver(so.ordering);
-      break;
-    case SolverKind::Dense:
-      m.solver = makeDenseMarginalSolver();
-      break;
+  if (so.reduced_covariance) {
+    // A given covariance (self-calibration's sandwich) instead of S⁻¹.
+    m.solver = makeGivenMarginalSolver(*so.reduced_covariance, m.gauge.dim());
+  } else {
+    switch (so.kind) {
+      case SolverKind::Sparse:
+        m.solver = makeCholmodMarginalSolver(so.ordering);
+        break;
+      case SolverKind::Dense:
+        m.solver = makeDenseMarginalSolver();
+        break;
+    }
   }
   try {
     // A gauge that fixes every keyframe (two keyframes, hard two-pose gauge) leaves nothing free:
     // every covariance is zero and there is nothing to factorize.
-    if (m.gauge.dim() > 0) m.solver->factorize(S_reduced);
+    if (m.gauge.dim() > 0 && !so.reduced_covariance) m.solver->factorize(S_reduced);
     S_reduced = Eigen::SparseMatrix<double>();
   } catch (const FactorizationError& e) {
     std::vector<int> kf;

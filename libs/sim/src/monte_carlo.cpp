@@ -10,9 +10,13 @@ void EvaluationSamples::append(const EvaluationSamples& o) {
 }
 
 EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& sim, const DbaOptions& options,
-                                   std::int64_t run, PairSelection pairs) {
+                                   std::int64_t run, PairSelection pairs,
+                                   const SelfCalibrationOptions* self_calibration) {
   const Snapshot& s = sim.snapshot;
-  const DbaCovariance cov(s, options);
+  const DbaCovariance cov =
+      self_calibration
+          ? selfCalibratedCovariance(s, options, {}, selfCalibrate(s, options, *self_calibration))
+          : DbaCovariance(s, options);
   const std::string prefix = "s" + std::to_string(s.label()) + "/";
   EvaluationSamples out;
   for (int k : cov.keyframes()) {
@@ -39,7 +43,8 @@ EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& sim, const DbaOption
 
 MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs,
                                const DbaOptions& options, PairSelection pairs,
-                               const std::function<void(int, int)>& progress) {
+                               const std::function<void(int, int)>& progress,
+                               const SelfCalibrationOptions* self_calibration) {
   MonteCarloResult r;
   const int S = scenario.numSnapshots(), total = runs * S;
   int done = 0;
@@ -48,8 +53,8 @@ MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs
       const SimulatedSnapshot sim = scenario.simulate(s, static_cast<std::uint64_t>(run));
       r.solver.push_back(sim.solver);
       if (scenario.config().solve && !sim.solver.converged()) ++r.not_converged;
-      r.samples.append(
-          evaluateSnapshot(sim, options, static_cast<std::int64_t>(run) * S + s, pairs));
+      r.samples.append(evaluateSnapshot(sim, options, static_cast<std::int64_t>(run) * S + s, pairs,
+                                        self_calibration));
       if (progress) progress(++done, total);
     }
   return r;

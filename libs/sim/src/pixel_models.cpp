@@ -60,6 +60,13 @@ void NoiseModel::validate() const {
     throw std::invalid_argument("noise: correlation length must be > 0 pixels");
   if (!(amplitude >= 0 && std::isfinite(amplitude)))
     throw std::invalid_argument("noise: amplitude must be finite and >= 0");
+  if (!(affine_px >= 0 && std::isfinite(affine_px)) || !(field_px >= 0 && std::isfinite(field_px)))
+    throw std::invalid_argument("noise: affine_px and field_px must be finite and >= 0");
+  if (!(field_length_px > 0 && std::isfinite(field_length_px)))
+    throw std::invalid_argument("noise: field_length_px must be positive");
+  if (!(outlier_fraction >= 0 && outlier_fraction < 1) ||
+      !(outlier_factor >= 0 && std::isfinite(outlier_factor)))
+    throw std::invalid_argument("noise: outlier_fraction must be in [0, 1), outlier_factor >= 0");
 }
 
 NoiseModel::Type parseNoiseType(const std::string& name) {

@@ -26,7 +26,7 @@ bool finitePositive(double v) {
   return std::isfinite(v) && v > 0;
 }
 
-enum Purpose : std::uint64_t { kWeights = 1, kNoise = 2, kInitialState = 3 };
+enum Purpose : std::uint64_t { kWeights = 1, kNoise = 2, kInitialState = 3, kExtraNoise = 4 };
 
 }  // namespace
 
@@ -171,6 +171,14 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
   std::mt19937_64 rng_w(mixSeed(c.seed, kWeights, s)), rng_n(mixSeed(c.seed, kNoise, s, run));
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   const UnitNoiseField field(c.noise, H, W);
+  // Errors beyond the claimed noise (pixel_models.h), from a stream of their own so that the
+  // claimed noise of a run does not change when they are switched on.
+  NoiseModel extra_model;
+  extra_model.type = NoiseModel::Type::Correlated;
+  extra_model.correlation_length_px = c.noise.field_length_px;
+  const UnitNoiseField extra_field(extra_model, H, W);
+  std::mt19937_64 rng_x(mixSeed(c.seed, kExtraNoise, s, run));
+  std::normal_distribution<double> nx(0.0, 1.0);
   const int E = snap.numEdges();
   snap.target.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
   snap.weight.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
@@ -178,6 +186,12 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
     const int i = static_cast<int>(snap.ii[e]), j = static_cast<int>(snap.jj[e]);
     const Eigen::Isometry3d T_ji = T_wc_true_[j].inverse() * T_wc_true_[i];
     const std::vector<double> n[2] = {field.sample(rng_n), field.sample(rng_n)};
+    double affine[2][3] = {{0, 0, 0}, {0, 0, 0}};
+    std::vector<double> gf[2];
+    for (int a = 0; a < 2; ++a) {
+      for (double& coef : affine[a]) coef = c.noise.affine_px * nx(rng_x);
+      if (c.noise.field_px > 0) gf[a] = extra_field.sample(rng_x);
+    }
     for (int p = 0; p < HW; ++p) {
       const double d = disp_true_[i][p];
       const Eigen::Vector3d Y =
@@ -195,12 +209,17 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
           visible = d / Y.z() >= c.scene.inverseDepth(T_wc_true_[j], xn, yn) * (1.0 - 1e-3);
       }
       const bool zero = u01(rng_w) < c.weights.zero_fraction || !visible;
+      const bool outlier = c.noise.outlier_fraction > 0 && u01(rng_x) < c.noise.outlier_fraction;
+      const double u = (p % W - K_.cx) / (0.5 * W), v = (p / W - K_.cy) / (0.5 * H);
       for (int a = 0; a < 2; ++a) {
         const float w = zero ? 0.0f : static_cast<float>(c.weights.sample(rng_w));
         const double sigma = w > 0 ? c.noise.amplitude / std::sqrt(c.weight_scale * w) : 0.0;
         snap.weight[(static_cast<std::size_t>(e) * 2 + a) * HW + p] = w;
+        double err = sigma * n[a][p] + affine[a][0] + affine[a][1] * u + affine[a][2] * v;
+        if (c.noise.field_px > 0) err += c.noise.field_px * gf[a][p];
+        if (outlier) err *= c.noise.outlier_factor;
         snap.target[(static_cast<std::size_t>(e) * 2 + a) * HW + p] =
-            static_cast<float>(proj[a] + sigma * n[a][p]);
+            static_cast<float>(proj[a] + (w > 0 ? err : 0.0));
       }
     }
   }

@@ -273,6 +273,17 @@ std::vector<ScenarioField> makeSchema() {
       "Multiplies the target noise (1 = the variance 1/(weight_scale w) "
       "that the confidences claim)",
       [](C & c) -> auto& { return c.noise.amplitude; }));
+  // Errors the confidences do not describe (self-calibration studies; pixel_models.h).
+  s.push_back(field<double>(
+      "noise.affine_px", "", "", [](C & c) -> auto& { return c.noise.affine_px; }));
+  s.push_back(field<double>(
+      "noise.field_px", "", "", [](C & c) -> auto& { return c.noise.field_px; }));
+  s.push_back(field<double>(
+      "noise.field_length_px", "", "", [](C & c) -> auto& { return c.noise.field_length_px; }));
+  s.push_back(field<double>(
+      "noise.outlier_fraction", "", "", [](C & c) -> auto& { return c.noise.outlier_fraction; }));
+  s.push_back(field<double>(
+      "noise.outlier_factor", "", "", [](C & c) -> auto& { return c.noise.outlier_factor; }));
   {
     // --gauge names the type only, as everywhere (DbaOptionOverrides): a two-pose gauge keeps the
     // sigmas of the file, a minimal one has none.

@@ -13,6 +13,7 @@
 
 #include "dbacov/app/outputs.h"
 #include "dbacov/app/run_summary.h"
+#include "dbacov/app/self_calibration_options.h"
 #include "dbacov/app/visual_outputs.h"
 #include "dbacov/core/options.h"
 
@@ -28,7 +29,8 @@ struct CovarianceAppOptions {
   CovarianceOptions covariance;  ///< --solver, --ordering; depth variances set by the outputs
   SceneOutputOptions scene;      ///< --scene, --snapshot, ...
   std::string plots_dir;         ///< --plots
-  std::size_t threads = 0;       ///< 0 = all cores
+  SelfCalibrationAppOptions self_calibration;  ///< --self-calibrate, --edge-csv, --converge
+  std::size_t threads = 0;                     ///< 0 = all cores
   FailurePolicy policy = FailurePolicy::KeepGoing;
   bool quiet = false;
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "dbacov/app/scenario_options.h"
+#include "dbacov/app/self_calibration_options.h"
 
 namespace dbacov::app {
 
@@ -30,6 +31,7 @@ struct EvaluateOptions {
   bool calibrate = false, quiet = false;
   std::optional<double> inflation;
   ScenarioOptions scenario;
+  SelfCalibrationAppOptions self_calibration;  ///< Monte Carlo: self-calibrated covariances
 };
 
 /// Runs the app on parsed options (the report to `out`, messages to `err`). Returns 0 on success,

@@ -5,8 +5,11 @@
 // declared once in libs/app/src/engine_cli.h; the scenario; the Python keywords).
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
+
+#include <Eigen/Core>
 
 #include "dbacov/core/enum_names.h"
 
@@ -105,6 +108,9 @@ struct CovarianceOptions {
   /// Keep the depth terms of the linearization so that inverseDepthSigma() can answer (costs
   /// 6·(1 + targets) doubles per pixel of every source keyframe).
   bool depth_variances = false;
+  /// When set, Σ in the gauge's reduced coordinates (K×K, K = free pose DoF) replaces S⁻¹: the
+  /// sandwich of self_calibration.h. Linearization and gauge are still those of the snapshot.
+  std::shared_ptr<const Eigen::MatrixXd> reduced_covariance;
 };
 
 template <>

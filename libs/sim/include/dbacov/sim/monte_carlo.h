@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "dbacov/core/options.h"
+#include "dbacov/core/self_calibration.h"
 #include "dbacov/sim/consistency.h"
 #include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/scenario.h"
@@ -35,9 +36,12 @@ struct EvaluationSamples {
 
 /// The samples of one solved snapshot, covariances computed with `options` (normally the
 /// scenario's engineOptions(); the weight scale may differ to study mis-scaled covariances).
+/// With `self_calibration`, the covariances are self-calibrated from the residuals
+/// (self_calibration.h) instead.
 EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& snapshot, const DbaOptions& options,
                                    std::int64_t run,
-                                   PairSelection pairs = PairSelection::Consecutive);
+                                   PairSelection pairs = PairSelection::Consecutive,
+                                   const SelfCalibrationOptions* self_calibration = nullptr);
 
 struct MonteCarloResult {
   EvaluationSamples samples;
@@ -51,6 +55,7 @@ struct MonteCarloResult {
 MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs,
                                const DbaOptions& options,
                                PairSelection pairs = PairSelection::Consecutive,
-                               const std::function<void(int, int)>& progress = {});
+                               const std::function<void(int, int)>& progress = {},
+                               const SelfCalibrationOptions* self_calibration = nullptr);
 
 }  // namespace dbacov::sim

@@ -49,6 +49,18 @@ struct NoiseModel {
   /// Multiplies every target error: 1 = the variance the weights claim (consistent), 0 = exact
   /// targets, 2 = four times the claimed variance.
   double amplitude = 1.0;
+  // Errors the confidences do not describe, added on top (self-calibration studies; all in px,
+  // independent of the weights, independent across edges and runs):
+  /// Per edge and axis a flow error a0 + a1·u + a2·v, u = (x − cx)/(W/2), v = (y − cy)/(H/2),
+  /// each coefficient ~ N(0, affine_px²).
+  double affine_px = 0.0;
+  /// A Gaussian random field per edge and axis, correlation length field_length_px (the
+  /// Correlated model's field), standard deviation field_px.
+  double field_px = 0.0;
+  double field_length_px = 4.0;
+  /// A fraction of the pixels (both axes) whose total error is multiplied by outlier_factor.
+  double outlier_fraction = 0.0;
+  double outlier_factor = 10.0;
 
   /// Throws std::invalid_argument for a non-positive correlation length or negative amplitude.
   void validate() const;

@@ -11,7 +11,8 @@
 //   edges         {radius, overlap_threshold, max_overlap_edges, candidate_distance}
 //   weights       {distribution ("uniform" | "beta" | "constant"), min, max, alpha, beta, value,
 //                  zero_fraction}
-//   noise         {model ("white" | "correlated"), correlation_length_px, amplitude}
+//   noise         {model ("white" | "correlated"), correlation_length_px, amplitude, affine_px,
+//                  field_px, field_length_px, outlier_fraction, outlier_factor}
 //   gauge         {type ("two-pose" | "minimal"), sigma_rot, sigma_trans}
 //   initial_perturbation {translation, rotation, inverse_depth}
 //   solver        {max_iterations, initial_lambda, max_lambda, function_tolerance,

@@ -1,0 +1,21 @@
+// The self-calibration settings of the apps (--self-calibrate, --self-calibrate-method,
+// --self-calibrate-iterations, --edge-csv, --converge), shared by dba-covariance and dba-evaluate.
+#pragma once
+
+#include <string>
+
+#include "dbacov/core/self_calibration.h"
+
+namespace dbacov::app {
+
+struct SelfCalibrationAppOptions {
+  bool enabled = false;   ///< --self-calibrate (or implied by --self-calibrate-method)
+  std::string method;     ///< --self-calibrate-method (default: the core's default)
+  int iterations = 0;     ///< --self-calibrate-iterations (0 = the core's default)
+  std::string edge_csv;   ///< --edge-csv (dba-covariance only)
+  bool converge = false;  ///< --converge (dba-covariance only)
+  /// The core options; throws std::invalid_argument for an unknown method.
+  SelfCalibrationOptions options() const;
+};
+
+}  // namespace dbacov::app

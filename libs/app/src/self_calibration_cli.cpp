@@ -1,0 +1,151 @@
+#include "self_calibration_cli.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "dbacov/io/atomic_file.h"
+#include "dbacov/sim/dba_solver.h"
+
+namespace dbacov::app {
+
+SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
+  SelfCalibrationOptions o;
+  if (!method.empty()) o.method = parseSelfCalibrationMethod(method);
+  if (iterations > 0) o.iterations = iterations;
+  o.validate();
+  return o;
+}
+
+namespace detail {
+
+void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool outputs) {
+  cli.add_flag("--self-calibrate", o.enabled,
+               "Estimate each edge's noise (scale and correlation) from the snapshot's residuals "
+               "and inflate its pixel information accordingly (no ground truth)");
+  cli.add_option("--self-calibrate-method", o.method,
+                 "score (default), vce, autocorr or sandwich; implies --self-calibrate")
+      ->check(CLI::IsMember(enumNames<SelfCalibrationMethod>()))
+      ->each([&o](const std::string&) { o.enabled = true; });
+  cli.add_option("--self-calibrate-iterations", o.iterations,
+                 "Reweighting passes of vce/score/autocorr (default 1)")
+      ->check(CLI::Range(1, 20));
+  if (!outputs) return;
+  cli.add_option("--edge-csv", o.edge_csv,
+                 "With --self-calibrate: one row per (snapshot, edge): pixels, residual RMS, "
+                 "inflation, effective pixels, method");
+  cli.add_flag("--converge", o.converge,
+               "Solve each snapshot's DBA to the optimum of its own factors (project's solver) "
+               "before computing covariances; outputs then hold the solved poses");
+}
+
+SelfCalibrationRun::SelfCalibrationRun(const SelfCalibrationCli& cli)
+    : cli_(cli), options_(cli.options()) {
+  if (!cli_.edge_csv.empty() && !cli_.enabled)
+    throw std::invalid_argument("--edge-csv needs --self-calibrate");
+}
+
+namespace {
+std::string number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", x);
+  return buf;
+}
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+}  // namespace
+
+std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const DbaOptions& o,
+                                                              const CovarianceOptions& solver) {
+  std::string text;
+  std::string* warning = &text;
+  const auto t0 = std::chrono::steady_clock::now();
+  bool converged = false;
+  if (cli_.converge) {
+    const DbaSolverSummary sum = solveDba(s, o);
+    converged = sum.converged();
+    if (!converged && warning)
+      *warning = s.source + " (snapshot " + std::to_string(s.label()) +
+                 "): --converge: the DBA solve did not converge (" + sum.brief() + ")";
+  }
+  if (!cli_.enabled) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    converged_ += converged;
+    if (!text.empty()) warnings_[s.index] = text;
+    return std::make_unique<DbaCovariance>(s, o, solver);
+  }
+  const SelfCalibration cal = selfCalibrate(s, o, options_);
+  auto cov = std::make_unique<DbaCovariance>(selfCalibratedCovariance(s, o, solver, cal));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const bool unreliable = cal.optimum.unreliable();
+  if (unreliable && warning && warning->empty())
+    *warning = s.source + " (snapshot " + std::to_string(s.label()) +
+               "): the state is far from the optimum of its factors (one Gauss-Newton step is " +
+               number(cal.optimum.step_sigma) + " sigma for " +
+               std::to_string(cal.optimum.free_dof) +
+               " free DoF): the self-calibration may be biased; consider --converge";
+  std::ostringstream rows;
+  for (const EdgeCalibration& e : cal.edges)
+    rows << s.label() << ',' << e.i << ',' << e.j << ',' << e.pixels << ','
+         << number(e.residual_rms) << ',' << number(e.inflation) << ','
+         << number(e.effective_pixels) << ',' << toString(cal.method) << ',' << number(e.redundancy)
+         << ',' << number(e.vce_scale) << ',' << number(e.correlation) << '\n';
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!text.empty()) warnings_[s.index] = text;
+  rows_[s.index] += rows.str();
+  for (const EdgeCalibration& e : cal.edges)
+    if (e.rows > 0) inflations_.push_back(e.inflation);
+  scales_.push_back(cal.global_scale);
+  steps_.push_back(cal.optimum.step_sigma / std::sqrt(std::max(1, cal.optimum.free_dof)));
+  ++snapshots_;
+  unreliable_ += unreliable;
+  converged_ += converged;
+  seconds_ += seconds;
+  return cov;
+}
+
+std::vector<std::string> SelfCalibrationRun::warnings() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<std::string> w;
+  for (const auto& [index, text] : warnings_) w.push_back(text);
+  return w;
+}
+
+void SelfCalibrationRun::commit() const {
+  if (cli_.edge_csv.empty()) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  io::writeFileAtomically(cli_.edge_csv, [&](std::ostream& os) {
+    os << "snapshot,i,j,pixels,residual_rms,inflation,effective_pixels,method,redundancy,"
+          "vce_scale,correlation\n";
+    for (const auto& [index, rows] : rows_) os << rows;
+  });
+}
+
+std::string SelfCalibrationRun::summaryLine() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::ostringstream os;
+  if (cli_.converge) os << "--converge: " << converged_ << " snapshots solved to convergence";
+  if (!cli_.enabled) return os.str();
+  if (cli_.converge) os << "; ";
+  os << "self-calibration " << toString(options_.method) << ": " << snapshots_ << " snapshots";
+  if (!inflations_.empty()) {
+    const auto [lo, hi] = std::minmax_element(inflations_.begin(), inflations_.end());
+    os << ", edge inflation median " << number(median(inflations_)) << " (" << number(*lo) << " to "
+       << number(*hi) << "), global residual scale " << number(median(scales_));
+  }
+  if (snapshots_ > 0) os << ", " << number(seconds_ / snapshots_) << " s per snapshot";
+  if (!steps_.empty())
+    os << ", Gauss-Newton step to the optimum median " << number(median(steps_))
+       << " sigma per sqrt(DoF)";
+  if (unreliable_) os << ", " << unreliable_ << " far from their optimum";
+  return os.str();
+}
+
+}  // namespace detail
+}  // namespace dbacov::app

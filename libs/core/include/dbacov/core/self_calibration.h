@@ -1,0 +1,158 @@
+// Self-calibration of the pixel noise from the residuals of one snapshot (no ground truth).
+//
+// The covariance engine (covariance.h) assumes independent pixel factors with information
+// Λ = weight_scale · diag(w_x, w_y). Real flow errors are larger or smaller than the confidences
+// claim (a wrong `weight_scale`) and correlated within an edge (smooth flow errors). The
+// residuals r = target − π(Y) at the linearization point (DBA's optimum) carry both: this module
+// estimates per edge e a variance factor ("inflation") c_e, so that the edge's pixel information
+// becomes Λ / c_e, or (sandwich) a robust covariance of the poses, and the query API of
+// DbaCovariance answers with the calibrated model. Conventions: docs/conventions.md §2 (factor),
+// §3 (tangent), §4 (Schur complement and gauge).
+//
+// Notation, for the whitened rows of edge e (one per pixel and axis with w > 0): λ the row's
+// information, u its pose Jacobian on the slots that the source keyframe touches, J_d its depth
+// derivative, and for the source pixel k the depth terms h_k = Σ λ J_d², b_k = Σ λ J_d u over all
+// edges leaving the source. The depth-reduced row v = u − (J_d / h_k) b_k satisfies
+// S = Σ_rows λ v vᵀ (the reduced pose information) and g_S = Σ_rows λ r v (the reduced gradient),
+// so per edge
+//   I_e  = Σ_{rows of e} λ v vᵀ        (the edge's share of S),
+//   g_e  = Σ_{rows of e} λ r v         (the edge's depth-reduced score),
+//   lev  = λ (vᵀ Σ v + J_d² / h_k)     (the row's leverage: what poses and depth absorb),
+// with Σ the dense pose covariance (full tangent, zero along removed gauge directions).
+//
+// Methods (SelfCalibrationMethod):
+//   vce       Förstner/Helmert variance-component estimation, one component per edge:
+//             c_e ← c_e · q_e / ρ_e with q_e = Σ λ r² and the redundancy ρ_e = n_e − Σ lev,
+//             iterated (weights, Σ and redundancies recomputed). Corrects scale, not correlation.
+//   autocorr  vce's scale times τ_e = Σ_Δ w(Δ) ρ_e(Δ), the Bartlett-tapered sum of the 2-D
+//             autocorrelation of the edge's standardized residual field r·√λ/√(1 − lev) on the
+//             H×W grid over lags |Δx|, |Δy| <= L (`autocorr_lag`); effective pixels n_e / τ_e.
+//             Captures correlation up to the lag window only.
+//   score     c_e ← c_e · scale_e · ratio_e: vce's scale times the score ratio κ_e / scale_e with
+//             κ_e = g_eᵀ Σ g_e / E[g_eᵀ Σ g_e], the expectation under the
+//             current model: tr(Σ I_e) − tr(Σ D_e) − tr((Σ I_e)²), D_e = Σ_k c_k c_kᵀ / h_k with
+//             c_k = Σ_{rows of e at pixel k} λ J_d v (what the shared depth takes out of the edge's
+//             score) and the last term what the poses take out. It measures the edge's error in
+//             the pose directions that the covariance weighs, whatever its spatial structure
+//             (a scalar cluster-robust estimate). With score_metric Information (Covariance is the
+//             default) the statistic is g_eᵀ I_e⁺ g_e instead, expectation rank(I_e) − tr(I_e⁺ D_e)
+//             − tr(Σ I_e): far more degrees of freedom per edge. The ratio has few degrees of
+//             freedom (ν_e = tr(ΣI_e)² / tr((ΣI_e)²)), so it is shrunk towards the ratio pooled
+//             over all edges (score_prior_dof); iterated like vce.
+//   sandwich  the cluster-robust covariance Σ (Σ_e g_e g_eᵀ / f_e) Σ with clusters = edges, in
+//             the gauge's reduced coordinates, and the small-sample correction
+//             f_e = E[g_eᵀ Σ g_e] / tr(Σ I_e) (what the fit takes out of each cluster's score;
+//             a scalar form of the CR3 correction). Needs more edges than free pose DoF; shape
+//             and scale both come from the scores (noisy for few edges).
+// All but sandwich produce per-edge inflations; selfCalibratedSnapshot() then divides the edge's
+// weights by c_e and DbaCovariance recomputes the covariance. Assumptions: the state is (close to)
+// the optimum of the snapshot's own factors (see distanceFromOptimum), errors are independent
+// across edges, and the linearization holds (high SNR).
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "dbacov/core/covariance.h"
+#include "dbacov/core/options.h"
+#include "dbacov/core/snapshot.h"
+
+namespace dbacov {
+
+enum class SelfCalibrationMethod { Vce, Autocorr, Score, Sandwich };
+template <>
+struct EnumNames<SelfCalibrationMethod> {
+  static constexpr const char* what = "self-calibration method";
+  static constexpr std::array<std::pair<SelfCalibrationMethod, const char*>, 4> entries{
+      {{SelfCalibrationMethod::Score, "score"},
+       {SelfCalibrationMethod::Vce, "vce"},
+       {SelfCalibrationMethod::Autocorr, "autocorr"},
+       {SelfCalibrationMethod::Sandwich, "sandwich"}}};
+};
+/// Parses a method name (parseEnum); throws std::invalid_argument naming the valid ones.
+inline SelfCalibrationMethod parseSelfCalibrationMethod(const std::string& name) {
+  return parseEnum<SelfCalibrationMethod>(name);
+}
+
+/// The metric of the score statistic: I_e⁺ (every direction of the edge's information equally:
+/// many degrees of freedom) or Σ (the pose covariance: the directions the covariance weighs).
+enum class ScoreMetric { Information, Covariance };
+
+struct SelfCalibrationOptions {
+  SelfCalibrationMethod method = SelfCalibrationMethod::Score;
+  int iterations = 1;    ///< reweighting passes of vce / score / autocorr (>= 1)
+  int autocorr_lag = 4;  ///< L of autocorr (>= 1)
+  /// score: prior degrees of freedom ν₀ of the shrinkage of an edge's score ratio κ_e/scale_e
+  /// (ν_e degrees of freedom) towards the pooled ratio: (ν_e ratio_e + ν₀ pooled)/(ν_e + ν₀).
+  double score_prior_dof = 30.0;
+  ScoreMetric score_metric = ScoreMetric::Covariance;
+  double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
+  double max_inflation = 1e9;
+  /// Throws std::invalid_argument for values out of their domain.
+  void validate() const;
+};
+
+/// What the self-calibration found for one edge.
+struct EdgeCalibration {
+  int edge = 0, i = 0, j = 0;   ///< index into ii/jj, source and target keyframe
+  std::size_t pixels = 0;       ///< pixels with at least one used factor axis
+  std::size_t rows = 0;         ///< used factor axes (w > 0)
+  double residual_rms = 0;      ///< px, RMS of r over the used axes
+  double chi2 = 0;              ///< Σ λ r² with the snapshot's weights
+  double redundancy = 0;        ///< n − Σ lev under the final weights (vce's denominator)
+  double vce_scale = 1;         ///< q / redundancy at the last pass
+  double correlation = 1;       ///< τ (autocorr) or κ·c/vce (score): the factor beyond scale
+  double inflation = 1;         ///< c_e: the edge's variance factor (1 for sandwich)
+  double effective_pixels = 0;  ///< pixels · vce_scale / inflation (autocorr: pixels / τ)
+};
+
+/// How far the snapshot's state is from the optimum of its own factors: the reduced gradient and
+/// one undamped Gauss-Newton step of the poses (δ = −S_r⁻¹ g_r) in units of their uncertainty.
+/// At DBA's optimum the step is 0; a state off by δ adds δᵀ S_r δ = step_sigma² to the residuals'
+/// χ² and about as much to the scores' Σ g_eᵀ Σ g_e, whose expectation is ≈ free_dof: a
+/// residual-based estimate (score, sandwich) is then biased by up to step_sigma² / free_dof.
+struct OptimumDistance {
+  double gradient_norm = 0;  ///< |g_r| (gauge-reduced, Euclidean)
+  double step_sigma = 0;     ///< sqrt(δᵀ S_r δ) = sqrt(g_rᵀ S_r⁻¹ g_r)
+  double max_step_sigma = 0;  ///< max over keyframes of sqrt(δ_aᵀ Σ_a⁻¹ δ_a) (marginal units)
+  int free_dof = 0;           ///< K, free pose DoF after the gauge
+  /// step_sigma² > fraction · K: the scores may be biased by more than `fraction`.
+  bool unreliable(double fraction = 0.1) const {
+    return step_sigma * step_sigma > fraction * std::max(1, free_dof);
+  }
+};
+struct SelfCalibration {
+  SelfCalibrationMethod method = SelfCalibrationMethod::Score;
+  std::vector<EdgeCalibration> edges;  ///< one per snapshot edge, in edge order
+  double global_scale = 1;             ///< Σ q / Σ redundancy at the snapshot's weights
+  int passes = 0;                      ///< linearizations done
+  OptimumDistance optimum;             ///< of the snapshot's state (first pass, its weights)
+  /// Sandwich only: the covariance in the gauge's reduced coordinates (for CovarianceOptions).
+  std::shared_ptr<const Eigen::MatrixXd> reduced_covariance;
+  /// Per-edge inflations in edge order.
+  std::vector<double> inflations() const;
+};
+
+/// Estimates the noise of every edge from the snapshot's residuals. Throws InputError for an
+/// invalid snapshot, std::invalid_argument for invalid options and NumericalError when the
+/// reduced system is not positive definite or (sandwich) there are not enough edges.
+SelfCalibration selfCalibrate(const Snapshot& snapshot, const DbaOptions& options,
+                              const SelfCalibrationOptions& calibration = {});
+
+/// A copy of the snapshot whose weights of edge e are divided by inflation[e].
+Snapshot inflateWeights(const Snapshot& snapshot, const std::vector<double>& inflation);
+
+/// The self-calibrated covariance: the inflated snapshot (or, for sandwich, the given reduced
+/// covariance) in the DbaCovariance query API.
+DbaCovariance selfCalibratedCovariance(const Snapshot& snapshot, const DbaOptions& options,
+                                       const CovarianceOptions& solver,
+                                       const SelfCalibration& calibration);
+
+/// The same, on its own (one linearization and a dense inverse).
+OptimumDistance distanceFromOptimum(const Snapshot& snapshot, const DbaOptions& options);
+
+}  // namespace dbacov

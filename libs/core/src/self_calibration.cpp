@@ -1,0 +1,454 @@
+// Self-calibration from the residuals (self_calibration.h). The residuals, scores and leverages
+// are computed in a scalar pass of their own (dba_factor.h), per source keyframe in parallel; the
+// pose covariance it needs is dense (K×K in the gauge's reduced coordinates, K = free pose DoF),
+// which is cheap for DROID-sized windows.
+#include "dbacov/core/self_calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include "dbacov/core/dba_factor.h"
+#include "dbacov/core/errors.h"
+#include "dbacov/core/gauge.h"
+#include "dbacov/core/linearization.h"
+#include "dbacov/core/parallel.h"
+
+namespace dbacov {
+
+void SelfCalibrationOptions::validate() const {
+  if (iterations < 1) throw std::invalid_argument("self-calibration iterations must be >= 1");
+  if (autocorr_lag < 1) throw std::invalid_argument("self-calibration autocorr lag must be >= 1");
+  if (!(min_inflation > 0) || !(max_inflation >= min_inflation) || !std::isfinite(max_inflation))
+    throw std::invalid_argument("self-calibration inflation bounds must satisfy 0 < min <= max");
+}
+
+std::vector<double> SelfCalibration::inflations() const {
+  std::vector<double> c;
+  c.reserve(edges.size());
+  for (const EdgeCalibration& e : edges) c.push_back(e.inflation);
+  return c;
+}
+
+Snapshot inflateWeights(const Snapshot& s, const std::vector<double>& inflation) {
+  if (static_cast<int>(inflation.size()) != s.numEdges())
+    throw std::invalid_argument("inflateWeights: " + std::to_string(inflation.size()) +
+                                " inflations for " + std::to_string(s.numEdges()) + " edges");
+  Snapshot out = s;
+  const std::size_t plane = 2 * s.pixelsPerFrame();
+  for (int e = 0; e < s.numEdges(); ++e) {
+    if (!(inflation[e] > 0) || !std::isfinite(inflation[e]))
+      throw std::invalid_argument("inflateWeights: inflation of edge " + std::to_string(e) +
+                                  " is not a positive finite number");
+    const float f = static_cast<float>(1.0 / inflation[e]);
+    float* w = &out.weight[e * plane];
+    for (std::size_t p = 0; p < plane; ++p) w[p] *= f;
+  }
+  return out;
+}
+
+namespace {
+
+/// The linearization, gauge and dense pose covariance of one state and weighting.
+struct DenseModel {
+  DbaNormalEquations ne;
+  GaugeParameterization gauge;
+  Eigen::MatrixXd basis;    ///< 6n × K, block diagonal
+  Eigen::MatrixXd Sr;       ///< K × K reduced information
+  Eigen::MatrixXd Sigma_r;  ///< K × K
+  Eigen::MatrixXd Sigma;    ///< 6n × 6n, full tangent
+};
+
+DenseModel buildModel(const Snapshot& s, const DbaOptions& o) {
+  DenseModel m;
+  m.ne = linearizeDba(s, o);
+  m.gauge = makeGauge(o.gauge, s, m.ne.keyframes);
+  checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
+  const int n = static_cast<int>(m.ne.keyframes.size()), K = m.gauge.dim();
+  m.basis = Eigen::MatrixXd::Zero(6 * n, K);
+  for (int a = 0; a < n; ++a)
+    m.basis.block(6 * a, m.gauge.offset[a], 6, m.gauge.dimOf(a)) = m.gauge.basis[a];
+  m.Sr = Eigen::MatrixXd::Zero(K, K);
+  m.Sigma_r = Eigen::MatrixXd::Zero(K, K);
+  if (K > 0) {
+    const Eigen::MatrixXd upper(reduceSystem(m.ne.S, m.gauge));
+    m.Sr = upper.selfadjointView<Eigen::Upper>();
+    if (!m.Sr.allFinite())
+      throw NumericalError(s.source + ": the information matrix has non-finite entries", {});
+    const Eigen::LLT<Eigen::MatrixXd> llt(m.Sr);
+    if (llt.info() != Eigen::Success)
+      throw NumericalError(s.source +
+                               ": the reduced information matrix S is not positive definite "
+                               "(self-calibration)",
+                           m.ne.keyframes);
+    m.Sigma_r = llt.solve(Eigen::MatrixXd::Identity(K, K));
+    m.Sigma_r = 0.5 * (m.Sigma_r + m.Sigma_r.transpose());
+  }
+  m.Sigma = m.basis * m.Sigma_r * m.basis.transpose();
+  return m;
+}
+
+/// Per-edge sums of one pass.
+struct EdgeAccum {
+  std::size_t pixels = 0, rows = 0;
+  double sum_r2 = 0;  ///< Σ r², px²
+  double q = 0;       ///< Σ λ r²
+  double lev = 0;     ///< Σ leverage
+  double tr_SI = 0, tr_SD = 0, tr_SISI = 0, gSg = 0;
+  double gIg = 0, expected_info = 0;  ///< g_eᵀ I_e⁺ g_e and its expectation
+  double tau = 1;
+  Eigen::VectorXd g;  ///< 6n, depth-reduced score
+};
+
+struct Row {
+  int pixel, channel;
+  double lam, r, jd;
+  Eigen::Matrix<double, 1, 6> Ji, Jj;
+};
+
+/// The tapered sum of the 2-D autocorrelation of the fields z[c] (mask: rows present).
+double autocorrelationSum(const std::vector<double> z[2], const std::vector<char> mask[2], int H,
+                          int W, int L) {
+  double var = 0, n = 0;
+  for (int c = 0; c < 2; ++c)
+    for (int p = 0; p < H * W; ++p)
+      if (mask[c][p]) {
+        var += z[c][p] * z[c][p];
+        n += 1;
+      }
+  if (n < 2 || !(var > 0)) return 1.0;
+  var /= n;
+  double tau = 0;
+  for (int dy = -L; dy <= L; ++dy)
+    for (int dx = -L; dx <= L; ++dx) {
+      const double taper =
+          (1.0 - std::abs(dx) / double(L + 1)) * (1.0 - std::abs(dy) / double(L + 1));
+      double num = 0, cnt = 0;
+      for (int c = 0; c < 2; ++c)
+        for (int y = std::max(0, -dy); y < std::min(H, H - dy); ++y)
+          for (int x = std::max(0, -dx); x < std::min(W, W - dx); ++x) {
+            const int p = y * W + x, q = (y + dy) * W + x + dx;
+            if (mask[c][p] && mask[c][q]) {
+              num += z[c][p] * z[c][q];
+              cnt += 1;
+            }
+          }
+      if (cnt > 0) tau += taper * (num / cnt) / var;
+    }
+  return tau;
+}
+
+/// One pass over every edge at the snapshot's state and weights, with the model's Σ.
+std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const DenseModel& m,
+                                bool autocorr, int L, bool info_metric) {
+  const int E = s.numEdges(), n = static_cast<int>(m.ne.keyframes.size());
+  const int HW = static_cast<int>(s.pixelsPerFrame());
+  const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
+  std::vector<EdgeAccum> acc(E);
+  for (EdgeAccum& a : acc) a.g = Eigen::VectorXd::Zero(6 * n);
+  std::vector<int> sources;
+  for (int k : m.ne.keyframes)
+    if (std::find(s.ii.begin(), s.ii.end(), k) != s.ii.end()) sources.push_back(k);
+
+  parallelFor(sources.size(), [&](std::size_t si) {
+    const int src = sources[si];
+    std::vector<int> touched{m.ne.slot_of[src]}, edges, tpos;
+    for (int e = 0; e < E; ++e) {
+      if (s.ii[e] != src) continue;
+      const int slot = m.ne.slot_of[s.jj[e]];
+      auto it = std::find(touched.begin(), touched.end(), slot);
+      tpos.push_back(static_cast<int>(it - touched.begin()));
+      if (it == touched.end()) touched.push_back(slot);
+      edges.push_back(e);
+    }
+    const int T = static_cast<int>(touched.size()), Q = static_cast<int>(edges.size());
+    Eigen::MatrixXd Sig(6 * T, 6 * T);
+    for (int a = 0; a < T; ++a)
+      for (int b = 0; b < T; ++b)
+        Sig.block<6, 6>(6 * a, 6 * b) = m.Sigma.block<6, 6>(6 * touched[a], 6 * touched[b]);
+    std::vector<Eigen::Matrix3d> R(Q);
+    std::vector<Eigen::Vector3d> t(Q);
+    const Eigen::Isometry3d T_wc_i = s.T_wc(src);
+    for (int q = 0; q < Q; ++q) {
+      const Eigen::Isometry3d T_ji = s.T_cw(static_cast<int>(s.jj[edges[q]])) * T_wc_i;
+      R[q] = T_ji.linear();
+      t[q] = T_ji.translation();
+    }
+
+    // Rows of every edge, and the depth terms h, b of every pixel.
+    std::vector<std::vector<Row>> rows(Q);
+    std::vector<double> h(HW, 0.0);
+    Eigen::MatrixXd B = Eigen::MatrixXd::Zero(6 * T, HW);
+    PixelFactorLinearization f;
+    for (int p = 0; p < HW; ++p) {
+      const double d = s.disps[static_cast<std::size_t>(src) * HW + p];
+      if (!(d > 0)) continue;
+      const double x = p % s.W, y = p / s.W;
+      for (int q = 0; q < Q; ++q) {
+        const int e = edges[q];
+        const double lam[2] = {o.weight_scale * s.weightPlane(e, 0)[p],
+                               o.weight_scale * s.weightPlane(e, 1)[p]};
+        if (!(lam[0] > 0 || lam[1] > 0)) continue;
+        const Eigen::Vector3d Y = transferPoint(R[q], t[q], K, x, y, d);
+        if (!keepPixelFactor(o, d, Y.z())) continue;
+        linearizePixelFactor(R[q], t[q], K, x, y, d, s.targetPlane(e, 0)[p], s.targetPlane(e, 1)[p],
+                             &f);
+        for (int c = 0; c < 2; ++c) {
+          if (!(lam[c] > 0)) continue;
+          Row r{p, c, lam[c], f.r[c], f.J_d[c], f.J_i.row(c), f.J_j.row(c)};
+          h[p] += lam[c] * r.jd * r.jd;
+          B.col(p).segment<6>(0) += lam[c] * r.jd * r.Ji.transpose();
+          B.col(p).segment<6>(6 * tpos[q]) += lam[c] * r.jd * r.Jj.transpose();
+          rows[q].push_back(r);
+        }
+      }
+    }
+
+    std::vector<double> z[2];
+    std::vector<char> mask[2];
+    for (int q = 0; q < Q; ++q) {
+      EdgeAccum& a = acc[edges[q]];
+      const std::vector<Row>& rq = rows[q];
+      const int M = static_cast<int>(rq.size());
+      if (M == 0) continue;
+      Eigen::MatrixXd V = Eigen::MatrixXd::Zero(6 * T, M);
+      Eigen::VectorXd sr(M), depth_lev = Eigen::VectorXd::Zero(M);
+      // Pixels of the edge (rows come pixel by pixel) for the depth's share D_e.
+      std::vector<int> first_row;
+      for (int k = 0; k < M; ++k) {
+        const Row& r = rq[k];
+        if (k == 0 || rq[k - 1].pixel != r.pixel) first_row.push_back(k);
+        const double sl = std::sqrt(r.lam);
+        V.col(k).segment<6>(0) = sl * r.Ji.transpose();
+        V.col(k).segment<6>(6 * tpos[q]) += sl * r.Jj.transpose();
+        if (h[r.pixel] > o.depth_info_eps) {
+          V.col(k) -= (sl * r.jd / h[r.pixel]) * B.col(r.pixel);
+          depth_lev[k] = r.lam * r.jd * r.jd / h[r.pixel];
+        }
+        sr[k] = sl * r.r;
+        a.sum_r2 += r.r * r.r;
+      }
+      a.rows = M;
+      a.pixels = first_row.size();
+      a.q = sr.squaredNorm();
+      const Eigen::VectorXd g = V * sr;
+      const Eigen::MatrixXd SV = Sig * V;
+      const Eigen::VectorXd lev = SV.cwiseProduct(V).colwise().sum().transpose() + depth_lev;
+      a.lev = lev.sum();
+      Eigen::MatrixXd I = Eigen::MatrixXd::Zero(6 * T, 6 * T);
+      I.selfadjointView<Eigen::Lower>().rankUpdate(V);
+      I = I.selfadjointView<Eigen::Lower>();
+      const Eigen::MatrixXd SI = Sig * I;
+      a.tr_SI = SI.trace();
+      a.tr_SISI = SI.cwiseProduct(SI.transpose()).sum();
+      a.gSg = g.dot(Sig * g);
+      const int P = static_cast<int>(first_row.size());
+      Eigen::MatrixXd C = Eigen::MatrixXd::Zero(6 * T, P);
+      Eigen::VectorXd hk(P);
+      for (int k = 0, pix = -1; k < M; ++k) {
+        if (pix + 1 < P && first_row[pix + 1] == k) ++pix;
+        const Row& r = rq[k];
+        hk[pix] = h[r.pixel];
+        if (h[r.pixel] > o.depth_info_eps) C.col(pix) += std::sqrt(r.lam) * r.jd * V.col(k);
+      }
+      for (int k = 0; k < P; ++k)
+        if (hk[k] > o.depth_info_eps) a.tr_SD += C.col(k).dot(Sig * C.col(k)) / hk[k];
+      // The same statistic in the edge's own information metric: g_eᵀ I_e⁺ g_e, expectation
+      // rank(I_e) − tr(I_e⁺ D_e) − tr(Σ I_e).
+      if (info_metric) {
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(I);
+        const Eigen::VectorXd& ev = eig.eigenvalues();
+        const double cut = 1e-10 * std::max(ev.maxCoeff(), 0.0);
+        int rank = 0;
+        Eigen::VectorXd inv = Eigen::VectorXd::Zero(ev.size());
+        for (int k = 0; k < ev.size(); ++k)
+          if (ev[k] > cut && cut > 0) {
+            inv[k] = 1.0 / ev[k];
+            ++rank;
+          }
+        const Eigen::MatrixXd U = eig.eigenvectors() * inv.cwiseSqrt().asDiagonal();
+        a.gIg = (U.transpose() * g).squaredNorm();
+        double tr_ID = 0;
+        const Eigen::MatrixXd UC = U.transpose() * C;
+        for (int k = 0; k < P; ++k)
+          if (hk[k] > o.depth_info_eps) tr_ID += UC.col(k).squaredNorm() / hk[k];
+        a.expected_info = rank - tr_ID - a.tr_SI;
+      }
+      for (int b = 0; b < T; ++b) a.g.segment<6>(6 * touched[b]) = g.segment<6>(6 * b);
+      if (autocorr) {
+        for (int c = 0; c < 2; ++c) {
+          z[c].assign(HW, 0.0);
+          mask[c].assign(HW, 0);
+        }
+        for (int k = 0; k < M; ++k) {
+          const Row& r = rq[k];
+          z[r.channel][r.pixel] = sr[k] / std::sqrt(std::max(1.0 - lev[k], 0.05));
+          mask[r.channel][r.pixel] = 1;
+        }
+        a.tau = autocorrelationSum(z, mask, s.H, s.W, L);
+      }
+    }
+  });
+  return acc;
+}
+
+OptimumDistance optimumDistance(const DenseModel& m) {
+  OptimumDistance d;
+  d.free_dof = m.gauge.dim();
+  if (m.gauge.dim() == 0) return d;
+  const Eigen::VectorXd gr = m.basis.transpose() * m.ne.g_S;
+  const Eigen::VectorXd step = m.Sigma_r * gr;
+  d.gradient_norm = gr.norm();
+  d.step_sigma = std::sqrt(std::max(0.0, gr.dot(step)));
+  for (std::size_t a = 0; a + 1 < m.gauge.offset.size(); ++a) {
+    const int off = m.gauge.offset[a], dim = m.gauge.dimOf(static_cast<int>(a));
+    if (dim == 0) continue;
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(m.Sigma_r.block(off, off, dim, dim));
+    const Eigen::VectorXd da = step.segment(off, dim);
+    d.max_step_sigma = std::max(d.max_step_sigma, std::sqrt(std::max(0.0, da.dot(ldlt.solve(da)))));
+  }
+  return d;
+}
+
+double expectedScore(const EdgeAccum& a) {
+  return a.tr_SI - a.tr_SD - a.tr_SISI;
+}
+
+}  // namespace
+
+SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
+                              const SelfCalibrationOptions& c) {
+  o.validate();
+  c.validate();
+  s.validate();
+  const int E = s.numEdges();
+  SelfCalibration out;
+  out.method = c.method;
+  out.edges.resize(E);
+  for (int e = 0; e < E; ++e) {
+    out.edges[e].edge = e;
+    out.edges[e].i = static_cast<int>(s.ii[e]);
+    out.edges[e].j = static_cast<int>(s.jj[e]);
+  }
+  std::vector<double> infl(E, 1.0);
+  const int passes = c.method == SelfCalibrationMethod::Sandwich ? 1 : c.iterations;
+  const auto clamp = [&](double x) {
+    return std::clamp(std::isfinite(x) ? x : c.max_inflation, c.min_inflation, c.max_inflation);
+  };
+  for (int it = 0; it < passes; ++it) {
+    const bool last = it + 1 == passes;
+    const Snapshot inflated = it == 0 ? Snapshot() : inflateWeights(s, infl);
+    const Snapshot& cur = it == 0 ? s : inflated;
+    const DenseModel model = buildModel(cur, o);
+    const std::vector<EdgeAccum> acc =
+        edgePass(cur, o, model, last && c.method == SelfCalibrationMethod::Autocorr, c.autocorr_lag,
+                 c.score_metric == ScoreMetric::Information);
+    ++out.passes;
+    if (it == 0) {
+      out.optimum = optimumDistance(model);
+      double q = 0, red = 0;
+      for (const EdgeAccum& a : acc) {
+        q += a.q;
+        red += a.rows - a.lev;
+      }
+      out.global_scale = red > 0 ? q / red : 1.0;
+    }
+    // Per edge: the scale (vce) and the score ratio κ / scale beyond it, with its effective
+    // number of degrees of freedom ν = tr(ΣI)² / tr((ΣI)²); the pooled ratio over all edges.
+    std::vector<double> ratio(E, 1.0), nu(E, 0.0);
+    double pooled_num = 0, pooled_den = 0;
+    for (int e = 0; e < E; ++e) {
+      const EdgeAccum& a = acc[e];
+      EdgeCalibration& ec = out.edges[e];
+      ec.pixels = a.pixels;
+      ec.rows = a.rows;
+      ec.residual_rms = a.rows ? std::sqrt(a.sum_r2 / a.rows) : 0.0;
+      ec.chi2 = a.q * infl[e];
+      ec.redundancy = a.rows - a.lev;
+      // Without redundancy (no used rows, or everything absorbed) the edge keeps its factor.
+      ec.vce_scale = ec.redundancy > 0.5 ? a.q / ec.redundancy : 1.0;
+      const bool info = c.score_metric == ScoreMetric::Information;
+      const double expected = info ? a.expected_info : expectedScore(a);
+      const double stat = info ? a.gIg : a.gSg;
+      if (expected > (info ? 0.5 : 1e-9 * std::max(1.0, a.tr_SI)) && a.tr_SISI > 0) {
+        ratio[e] = stat / (expected * ec.vce_scale);
+        nu[e] = info ? expected : a.tr_SI * a.tr_SI / a.tr_SISI;
+        pooled_num += stat;
+        pooled_den += expected * ec.vce_scale;
+      }
+    }
+    const double pooled = pooled_den > 0 ? pooled_num / pooled_den : 1.0;
+    for (int e = 0; e < E; ++e) {
+      const EdgeAccum& a = acc[e];
+      EdgeCalibration& ec = out.edges[e];
+      // The edge's own ratio, shrunk towards the pooled one by its precision.
+      const double shrunk =
+          nu[e] + c.score_prior_dof > 0
+              ? (nu[e] * ratio[e] + c.score_prior_dof * pooled) / (nu[e] + c.score_prior_dof)
+              : ratio[e];
+      switch (c.method) {
+        case SelfCalibrationMethod::Vce:
+          infl[e] = clamp(infl[e] * ec.vce_scale);
+          ec.correlation = 1.0;
+          break;
+        case SelfCalibrationMethod::Autocorr:
+          infl[e] = clamp(infl[e] * ec.vce_scale);
+          ec.correlation = last ? std::max(a.tau, 0.05) : 1.0;
+          if (last) infl[e] = clamp(infl[e] * ec.correlation);
+          break;
+        case SelfCalibrationMethod::Score:
+          ec.correlation = std::max(shrunk, 0.05);
+          infl[e] = clamp(infl[e] * ec.vce_scale * ec.correlation);
+          break;
+        case SelfCalibrationMethod::Sandwich:
+          ec.correlation = ratio[e];
+          break;
+      }
+      ec.inflation = infl[e];
+      ec.effective_pixels = ec.pixels / ec.correlation;
+    }
+    if (c.method == SelfCalibrationMethod::Sandwich) {
+      const int K = model.gauge.dim();
+      int clusters = 0;
+      Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(K, K);
+      for (const EdgeAccum& a : acc) {
+        if (a.rows == 0) continue;
+        ++clusters;
+        const double f = a.tr_SI > 0 ? std::clamp(expectedScore(a) / a.tr_SI, 0.05, 1.0) : 1.0;
+        const Eigen::VectorXd gr = model.basis.transpose() * a.g;
+        meat.noalias() += gr * gr.transpose() / f;
+      }
+      if (clusters <= K)
+        throw NumericalError(s.source + ": the sandwich self-calibration needs more edges (" +
+                                 std::to_string(clusters) + ") than free pose DoF (" +
+                                 std::to_string(K) + ")",
+                             {});
+      Eigen::MatrixXd V = model.Sigma_r * meat * model.Sigma_r;
+      V = 0.5 * (V + V.transpose());
+      out.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
+    }
+  }
+  return out;
+}
+
+DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
+                                       const CovarianceOptions& solver,
+                                       const SelfCalibration& cal) {
+  if (cal.reduced_covariance) {
+    CovarianceOptions so = solver;
+    so.reduced_covariance = cal.reduced_covariance;
+    return DbaCovariance(s, o, so);
+  }
+  return DbaCovariance(inflateWeights(s, cal.inflations()), o, solver);
+}
+
+OptimumDistance distanceFromOptimum(const Snapshot& s, const DbaOptions& o) {
+  o.validate();
+  s.validate();
+  return optimumDistance(buildModel(s, o));
+}
+
+}  // namespace dbacov
