@@ -65,6 +65,7 @@ import numpy as np
 
 __all__ = ["dump_dba_snapshot", "check_snapshot", "write_snapshot_npz", "to_numpy",
            "KeyframeRecord", "KeyframeTimeError", "DbaDumper", "read_euroc_image_times",
+           "snapshot_arrays",
            "DROID_STEREO_RIG"]
 
 #: The fixed transform DROID-SLAM's BA applies on an edge with ii == jj (droid_kernels.cu: the
@@ -308,6 +309,18 @@ def read_euroc_image_times(csv_path):
 
 def dump_dba_snapshot(path, video, graph, snapshot_id, timestamps_s=None, compressed=True,
                       include_inactive=False, record=None, image_times_s=None, stereo_rig=None):
+    arrays = snapshot_arrays(video, graph, snapshot_id, timestamps_s=timestamps_s,
+                             include_inactive=include_inactive, record=record,
+                             image_times_s=image_times_s, stereo_rig=stereo_rig)
+    write_snapshot_npz(path, arrays, compressed)
+    return path
+
+
+dump_dba_snapshot.__doc__ = None  # set below, shared with snapshot_arrays
+
+
+def snapshot_arrays(video, graph, snapshot_id=None, timestamps_s=None, include_inactive=False,
+                    record=None, image_times_s=None, stereo_rig=None):
     """Writes the current DBA factor graph of DROID-SLAM to `path` (SPEC §1 `.npz`, atomically).
 
     video         DROID's DepthVideo: poses (≥N,7) T_cw, disps (≥N,H,W), intrinsics (≥N,4),
@@ -391,8 +404,12 @@ def dump_dba_snapshot(path, video, graph, snapshot_id, timestamps_s=None, compre
     if snapshot_id is not None:
         arrays["id"] = np.array(int(snapshot_id), dtype=np.int64)
     check_snapshot(arrays, check_values=False)
-    write_snapshot_npz(path, arrays, compressed)
-    return path
+    return arrays
+
+
+dump_dba_snapshot.__doc__ = snapshot_arrays.__doc__
+snapshot_arrays.__doc__ = ("The SPEC §1 arrays of DROID's current DBA (a dict), as "
+                           "dump_dba_snapshot writes them.\n" + (snapshot_arrays.__doc__ or ""))
 
 
 class DbaDumper:

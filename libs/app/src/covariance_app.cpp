@@ -68,10 +68,14 @@ DbaOptions CovarianceAppOptions::engineOptions() const {
       o.gauge.type = GaugeOptions::Type::TwoPose;
     else if (*gauge == "minimal")
       o.gauge.type = GaugeOptions::Type::Minimal;
+    else if (*gauge == "droid")
+      o.gauge.type = GaugeOptions::Type::Droid;
     else
-      throw std::invalid_argument("unknown gauge '" + *gauge + "', expected two-pose or minimal");
+      throw std::invalid_argument("unknown gauge '" + *gauge +
+                                  "', expected two-pose, minimal or droid");
   }
-  if (o.gauge.type == GaugeOptions::Type::Minimal) {
+  if (sensor_depth_weight) o.sensor_depth_weight = *sensor_depth_weight;
+  if (o.gauge.type != GaugeOptions::Type::TwoPose) {
     if (gauge_sigma_rot || gauge_sigma_trans)
       throw std::invalid_argument(
           "--gauge-sigma-rot/--gauge-sigma-trans apply to --gauge two-pose only");
@@ -142,8 +146,11 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
                  "Information per unit confidence, px^-2 (droid 0.001, paper 0.1)");
   cli.add_option(
          "--gauge", opt.gauge,
-         "two-pose (priors on the first two keyframes of ii) or minimal (first fixed + scale)")
-      ->check(CLI::IsMember({"two-pose", "minimal"}));
+         "two-pose (priors on the first two keyframes of ii), minimal (first fixed + scale) or "
+         "droid (the poses below the snapshot's t0 fixed, as DROID's BA held them)")
+      ->check(CLI::IsMember({"two-pose", "minimal", "droid"}));
+  cli.add_option("--sensor-depth-weight", opt.sensor_depth_weight,
+                 "RGB-D (key disps_sens): information of the depth-sensor factor (droid 0.05)");
   cli.add_option("--gauge-sigma-rot", opt.gauge_sigma_rot,
                  "two-pose prior sigma of rotation, rad (0 = hard fix)");
   cli.add_option("--gauge-sigma-trans", opt.gauge_sigma_trans,

@@ -35,6 +35,8 @@ void DbaOptions::validate() const {
   if (near && !positive(*near)) throw std::invalid_argument("near must be finite and > 0");
   if (far && !positive(*far)) throw std::invalid_argument("far must be finite and > 0");
   if (near && far && !(*near < *far)) throw std::invalid_argument("near must be < far");
+  if (!(std::isfinite(sensor_depth_weight) && sensor_depth_weight >= 0))
+    throw std::invalid_argument("sensor depth weight must be finite and >= 0");
   if (!(std::isfinite(gauge.sigma_rot) && gauge.sigma_rot >= 0))
     throw std::invalid_argument("gauge rotation sigma must be finite and >= 0");
   if (!(std::isfinite(gauge.sigma_trans) && gauge.sigma_trans >= 0))

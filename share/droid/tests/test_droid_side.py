@@ -477,8 +477,9 @@ def make_dump(rng, n=4, e=5, h=3, w=5, planes="(1,E,H,W,2)", disps="(N,H,W)", po
     return dump, expected
 
 
-def run_converter(*args):
-    r = subprocess.run([sys.executable, "-B", CONVERTER, *args], capture_output=True, text=True)
+def run_converter(*args, env=None):
+    r = subprocess.run([sys.executable, "-B", CONVERTER, *args], capture_output=True, text=True,
+                       env=env)
     return r.returncode, r.stdout, r.stderr
 
 
@@ -621,7 +622,13 @@ class ConverterTest(unittest.TestCase):
             path = self.save("t.pkl", {"poses": Tensor()})
         finally:
             del sys.modules["torch"]
-        code, _, stderr = run_converter(path, "-o", os.path.join(self.dir, "out"))
+        # Whether or not torch is installed here: a 'torch' that cannot be imported shadows it.
+        shadow = os.path.join(self.dir, "no_torch", "torch")
+        os.makedirs(shadow)
+        with open(os.path.join(shadow, "__init__.py"), "w") as f:
+            f.write("raise ModuleNotFoundError(\"No module named 'torch'\", name='torch')\n")
+        env = dict(os.environ, PYTHONPATH=os.path.dirname(shadow))
+        code, _, stderr = run_converter(path, "-o", os.path.join(self.dir, "out"), env=env)
         self.assertEqual(code, 1)
         self.assertRegex(stderr, r"t\.pkl: the pickle holds torch tensors and PyTorch is not "
                                  r"installed: install torch")

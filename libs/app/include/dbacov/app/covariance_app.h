@@ -18,6 +18,7 @@ struct CovarianceAppOptions {
   std::optional<double> fps;
   std::string solver = "sparse", ordering = "auto";
   std::string preset = "droid";
+  std::optional<double> sensor_depth_weight;  ///< --sensor-depth-weight (RGB-D α)
   std::optional<double> weight_scale, gauge_sigma_rot, gauge_sigma_trans, near, far,
       min_depth_ratio;
   std::optional<std::string> gauge;

@@ -16,6 +16,9 @@ struct GaugeOptions {
     /// Hard-fix the first such keyframe (6 DoF) and only the distance between the first two
     /// keyframe centres (scale, 1 DoF): the second keyframe keeps 5 free DoF.
     Minimal,
+    /// DROID-SLAM's own gauge in that update: hard-fix every graph keyframe below the snapshot's
+    /// `t0` = max(1, min(ii) + 1) (DROID's BA optimizes only poses t0..t1−1). Needs the key 't0'.
+    Droid,
   };
   Type type = Type::TwoPose;
   double sigma_rot = 0.0;    ///< radians, TwoPose only
@@ -35,6 +38,10 @@ struct DbaOptions {
   /// their factors contribute only through the pose block (b_k is then negligible, see
   /// linearization.cpp).
   double depth_info_eps = 1e-12;
+  /// RGB-D (snapshot key 'disps_sens'): information α of the depth-sensor factor
+  /// α·(d − d_sens)² on every source pixel with d_sens > 0, in (inverse depth)^-2. DROID's BA
+  /// (droid_kernels.cu) uses α = 0.05 with its 0.001-weighted reprojection factors; 0 = off.
+  double sensor_depth_weight = 0.05;
   GaugeOptions gauge;
 
   /// DROID-SLAM's own DBA: weight_scale 0.001, Y2 >= 0.25, two-pose gauge hard-fixed.
