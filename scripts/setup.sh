@@ -18,6 +18,8 @@ PACKAGES=(
   gnuplot-nox fonts-dejavu-core
   libegl1 libegl-mesa0 libgl1-mesa-dri
   python3-numpy
+  # import dbacov (build/python) and its pytest suite on tensors shaped as DROID's.
+  python3-dev python3-pytest python3-torch pybind11-dev
   # Reliability (scripts/test.sh, scripts/fuzz.sh): zlib (rawlogs from pipes), clang with its
   # libFuzzer and sanitizer runtimes for the fuzz targets (the sanitizer pass itself uses GCC).
   zlib1g-dev clang libclang-rt-14-dev

@@ -4,7 +4,7 @@
 The code published with the paper (github.com/jpsnir/droid_slam_covariance_models) stores one DBA
 factor graph per pickle: a dict with keys id, intrinsics, graph_data {ii, jj}, disps, c_map,
 predicted, poses, tstamp (torch tensors or numpy arrays). This tool writes each as the `.npz` of
-SPEC §1 ('predicted' -> 'target', 'c_map' -> 'weight', graph_data.ii/jj -> 'ii'/'jj'), validated,
+conventions §1 ('predicted' -> 'target', 'c_map' -> 'weight', graph_data.ii/jj -> 'ii'/'jj'), validated,
 atomically, one output per input with the same stem. See --help.
 """
 
@@ -20,14 +20,14 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from dbacov_dump import check_snapshot, to_numpy, write_snapshot_npz  # noqa: E402
 
 PROG = "convert_pickle_dumps.py"
-# Names of the SPEC keys in the pickles, for messages.
+# Names of the snapshot keys in the pickles, for messages.
 SOURCE_NAMES = {"target": "predicted", "weight": "c_map", "ii": "graph_data.ii",
                 "jj": "graph_data.jj"}
 PICKLE_SUFFIXES = (".pkl", ".pickle")
 
 DESCRIPTION = """\
 Convert pickled DBA dumps of the paper's code (github.com/jpsnir/droid_slam_covariance_models) to
-dbacov snapshot .npz files (SPEC §1): 'predicted' -> 'target', 'c_map' -> 'weight',
+dbacov snapshot .npz files (conventions §1): 'predicted' -> 'target', 'c_map' -> 'weight',
 graph_data['ii'/'jj'] -> 'ii'/'jj'; 'poses', 'disps', 'intrinsics', 'tstamp' and (if present) 'id'
 are kept. foo.pkl becomes OUT_DIR/foo.npz.
 
@@ -115,7 +115,7 @@ def _indices(dump, key):
 
 
 def convert_dump(dump):
-    """The SPEC §1 arrays of one unpickled dump (a dict); raises ConversionError."""
+    """The conventions §1 arrays of one unpickled dump (a dict); raises ConversionError."""
     if not isinstance(dump, dict):
         raise ConversionError(f"the pickle holds a {type(dump).__name__}, expected a dict")
     ii, jj = _indices(dump, "ii"), _indices(dump, "jj")

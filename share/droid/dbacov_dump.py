@@ -1,7 +1,7 @@
 """Dump DROID-SLAM's dense-bundle-adjustment (DBA) factor graph as dbacov snapshots.
 
 One snapshot is the DBA factor graph of one frontend update, written as one `.npz` file in the
-interchange format of SPEC §1 (dbacov's ``docs/SPEC.md``), which ``dba-covariance`` reads:
+interchange format of conventions §1 (dbacov's ``docs/conventions.md``), which ``dba-covariance`` reads:
 
     poses        float32 (N,7)      T_cw as [tx ty tz qx qy qz qw] (lietorch order)
     disps        float32 (N,H,W)    inverse depth at 1/8 resolution
@@ -12,23 +12,27 @@ interchange format of SPEC §1 (dbacov's ``docs/SPEC.md``), which ``dba-covarian
     tstamp       float64 (N,)       DROID's keyframe time stamp (image index)
     timestamps_s float64 (N,)       optional: keyframe times in seconds
     id           int64   ()         snapshot counter
+    t0           int64   ()         DROID's first optimized pose, max(1, min(ii) + 1)
+    disps_sens   float32 (N,H,W)    RGB-D only: sensor inverse depth (1/m), 0 = none
+    stereo_rig   float64 (7,)       stereo only: transform of the ii == jj edges (DROID: -0.1 in x)
+
+``tstamp`` is the keyframes' true image index whatever the DROID release (KeyframeRecord corrects
+the stale ``video.tstamp`` of releases before 2025 after ``rm_keyframe``).
 
 DROID keeps targets and weights as (1,E,H,W,2) with the last axis (x, y); they are transposed to
 (E,2,H,W), never swapped. N is ``video.counter.value``: the keyframes in the buffer.
 
 Where to call it
 ----------------
-In DROID-SLAM's ``droid_slam/droid_frontend.py``, method ``DroidFrontend.__update`` (``_update`` in
-newer releases), right after its last DBA, i.e. after the ``if d.item() < ...: / else:`` block that
+In DROID-SLAM's ``droid_slam/droid_frontend.py``, method ``DroidFrontend._update`` (current
+DROID-SLAM; ``__update`` in releases before 2025), right after its last DBA, i.e. after the ``if d.item() < ...: / else:`` block that
 ends with ``self.graph.update(None, None, use_inactive=True)``, before "set pose for next
 iteration" (with ``share/droid`` on ``PYTHONPATH``)::
 
             for itr in range(self.iters2):
                 self.graph.update(None, None, use_inactive=True)
 
-        from dbacov_dump import dump_dba_snapshot
-        dump_dba_snapshot(f"{DUMP_DIR}/window_{self.count:06d}.npz",
-                          self.video, self.graph, snapshot_id=self.count)
+        self.dumper(self.video, self.graph, self.count)  # a DbaDumper made in __init__
 
         # set pose for next itration
         self.video.poses[self.t1] = self.video.poses[self.t1-1]
@@ -39,7 +43,7 @@ are the targets and confidences that DBA used. When the frontend has just droppe
 
 Not dumped, on purpose: DROID's Levenberg-Marquardt damping (``lm``, ``ep``) and its learned
 per-pixel depth damping (eta, ``graph.damping``). They are solver aids, not measurements, and are
-not part of the information matrix (SPEC §2).
+not part of the information matrix (conventions §2).
 
 Inactive edges: with ``use_inactive=True`` DROID's frontend DBA also uses the stored, no longer
 updated edges ``graph.ii_inac``/``jj_inac`` whose keyframes are >= t0 - 3 (t0 = min(ii) + 1). By
@@ -52,12 +56,21 @@ numpy arrays are taken as they are.
 """
 
 import contextlib
+import hashlib
 import os
+import sys
 import tempfile
 
 import numpy as np
 
-__all__ = ["dump_dba_snapshot", "check_snapshot", "write_snapshot_npz", "to_numpy"]
+__all__ = ["dump_dba_snapshot", "check_snapshot", "write_snapshot_npz", "to_numpy",
+           "KeyframeRecord", "KeyframeTimeError", "DbaDumper", "read_euroc_image_times",
+           "snapshot_arrays",
+           "DROID_STEREO_RIG"]
+
+#: The fixed transform DROID-SLAM's BA applies on an edge with ii == jj (droid_kernels.cu: the
+#: second camera of the stereo pair sits at tij = (-0.1, 0, 0), no rotation), [tx ty tz qx qy qz qw].
+DROID_STEREO_RIG = np.array([-0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
 
 
 def to_numpy(x):
@@ -75,7 +88,7 @@ def _plane_layout(a, name):
 
 
 def _where(key, index):
-    """An element of a SPEC array in words, independent of the layout it was converted from."""
+    """An element of a snapshot array in words, independent of the layout it was converted from."""
     index = [int(i) for i in index]
     if key in ("target", "weight"):
         e, c, y, x = index
@@ -86,11 +99,12 @@ def _where(key, index):
 
 
 def check_snapshot(arrays, check_values=True, names=None):
-    """Checks a dict of SPEC §1 arrays; raises ValueError naming the key and what was expected.
+    """Checks a dict of conventions §1 arrays; raises ValueError naming the key and what was expected.
 
     Always: shapes agree (N from 'poses', E from 'ii', H,W from 'disps'), ii/jj in [0, N) and
-    ii != jj. With check_values also: every float finite, weights >= 0, quaternions of non-zero
-    norm, positive focal lengths. `names` maps keys to the names used in messages.
+    ii != jj unless a 'stereo_rig' transform is given (a stereo edge). With check_values also:
+    every float finite, weights >= 0, quaternions of non-zero norm, positive focal lengths.
+    `names` maps keys to the names used in messages.
     """
     def k_(key):
         return "key '" + (names or {}).get(key, key) + "'"
@@ -100,7 +114,8 @@ def check_snapshot(arrays, check_values=True, names=None):
     h, w = arrays["disps"].shape[1:]
     expected = {"poses": (n, 7), "disps": (n, h, w), "intrinsics": (4,), "ii": (e,), "jj": (e,),
                 "target": (e, 2, h, w), "weight": (e, 2, h, w), "tstamp": (n,),
-                "timestamps_s": (n,), "id": ()}
+                "timestamps_s": (n,), "id": (), "disps_sens": (n, h, w), "stereo_rig": (7,),
+                "t0": ()}
     for key, shape in expected.items():
         if key in arrays and arrays[key].shape != shape:
             raise ValueError(f"{k_(key)} has shape {arrays[key].shape}, expected {shape}")
@@ -111,14 +126,15 @@ def check_snapshot(arrays, check_values=True, names=None):
             raise ValueError(f"{k_(key)}: edge {k} names keyframe {arrays[key][k]}, "
                              f"outside [0, {n}) (N = {n} keyframes)")
     same = np.flatnonzero(arrays["ii"] == arrays["jj"])
-    if same.size:
+    if same.size and "stereo_rig" not in arrays:
         k = same[0]
         raise ValueError(f"{k_('ii')} and {k_('jj')}: edge {k} links keyframe "
-                         f"{arrays['ii'][k]} to itself (a stereo edge? dbacov models monocular "
-                         "DBA only)")
+                         f"{arrays['ii'][k]} to itself (a stereo edge needs the rig transform "
+                         "'stereo_rig')")
     if not check_values:
         return
-    for key in ("poses", "disps", "intrinsics", "target", "weight", "tstamp", "timestamps_s"):
+    for key in ("poses", "disps", "intrinsics", "target", "weight", "tstamp", "timestamps_s",
+                "disps_sens", "stereo_rig"):
         if key in arrays:
             bad = np.argwhere(~np.isfinite(arrays[key]))
             if bad.size:
@@ -164,34 +180,186 @@ def write_snapshot_npz(path, arrays, compressed=True):
         raise
 
 
+class KeyframeTimeError(ValueError):
+    """The keyframes' frame indices cannot be established (the dump refuses to guess)."""
+
+
+def _fingerprint(image):
+    """A short digest of one keyframe image (subsampled), to recognise a slot after a shift."""
+    a = to_numpy(image)
+    return hashlib.blake2b(np.ascontiguousarray(a[..., ::4, ::4]).tobytes(), digest_size=16).digest()
+
+
+class KeyframeRecord:
+    """The true image (frame) index of every keyframe slot of one DepthVideo, kept by the hook.
+
+    DROID's `video.tstamp[k]` is the image index of keyframe slot k, written when the frame is
+    appended. `FactorGraph.rm_keyframe(ix)` shifts every buffer down by one slot above ix. DROID
+    releases before 2025 do not shift `tstamp` (checked on the 2022 release: its frontend calls
+    `rm_keyframe(t1 - 2)`), so from then on the kept keyframes carry the removed ones' time stamps;
+    current DROID shifts it (and removes `t1 - 3`). The record tells the two apart at every call:
+
+    * the slot beyond the counter still holds the last appended keyframe's time stamp after a
+      removal: equal to `tstamp[N-1]` when DROID shifted it, larger when it did not (stale);
+    * the record of the previous call: unchanged slots must keep their frame index, the new one is
+      larger than every recorded one;
+    * with `video.images` (every DROID release), a digest of the newest `window` images locates
+      the removed slot exactly; without images the 2022 release's rule (the removed slot is the
+      second newest, `t1 - 2`) is used.
+
+    A stale shift is corrected; anything inconsistent raises KeyframeTimeError (never a silent
+    wrong match against ground truth). One record per DepthVideo, called once per frontend update.
+    """
+
+    def __init__(self, window=8):
+        self.window = int(window)
+        self.frames = None  # np.int64 (N,): the truth at the previous call
+        self.prints = {}    # slot -> image digest at the previous call (newest `window` slots)
+        self.stale = False  # DROID's tstamp went stale (unshifted removal seen)
+        self.stale_corrections = 0
+
+    def _digests(self, video, n):
+        if getattr(video, "images", None) is None:
+            return {}
+        return {k: _fingerprint(video.images[k]) for k in range(max(0, n - self.window), n)}
+
+    def update(self, video):
+        """The frame index of keyframe slots 0..N-1 now (np.int64), updating the record."""
+        n = int(video.counter.value)
+        ts = to_numpy(video.tstamp[:n + 1]).astype(np.float64).reshape(-1)
+        if n < 1 or ts.size < n or not np.isfinite(ts[:n]).all() or \
+                (ts[:n] != np.round(ts[:n])).any():
+            raise KeyframeTimeError(f"video.tstamp[:{n}] does not hold integer image indices "
+                                    f"(counter.value = {n})")
+        view = ts[:n].astype(np.int64)
+        ghost = int(ts[n]) if ts.size > n and np.isfinite(ts[n]) else None
+        prints = self._digests(video, n)
+        prev = self.frames
+        if prev is None:
+            if ghost is not None and ghost > view[-1]:
+                # A removal in this very update left DROID's tstamp unshifted (pre-2025).
+                frames = np.delete(np.append(view, ghost), self._removed_slot(n, prints))
+                self.stale, self.stale_corrections = True, self.stale_corrections + 1
+            else:
+                frames = view
+        elif n == prev.size + 1:  # one keyframe appended: its tstamp is fresh in every release
+            frames = np.append(prev, view[-1])
+            if not self.stale and not np.array_equal(view[:-1], prev):
+                raise KeyframeTimeError(self._disagree(prev, view))
+        elif n == prev.size and ghost is not None and ghost > prev[-1]:
+            # A keyframe appended (its index survives beyond the counter) and one removed.
+            shifted = None
+            if not self.stale:
+                k = int(np.flatnonzero(np.append(view[:-1] != prev[:-1], True))[0])
+                if np.array_equal(view, np.append(np.delete(prev, k), ghost)):
+                    shifted = view  # current DROID shifted tstamp: it is the truth
+            if shifted is not None:
+                frames = shifted
+            else:
+                frames = np.append(np.delete(prev, self._removed_slot(n, prints)), ghost)
+                self.stale, self.stale_corrections = True, self.stale_corrections + 1
+        elif n == prev.size:  # called again without a new keyframe
+            frames = prev
+            if not self.stale and not np.array_equal(view, prev):
+                raise KeyframeTimeError(self._disagree(prev, view))
+        else:
+            raise KeyframeTimeError(f"the keyframe count went from {prev.size} to {n} between "
+                                    "two calls: call the hook once per frontend update")
+        frames = np.asarray(frames, dtype=np.int64)
+        if n > 1 and (np.diff(frames) <= 0).any():
+            k = int(np.flatnonzero(np.diff(frames) <= 0)[0])
+            raise KeyframeTimeError(f"keyframe frame indices are not increasing: slot {k} = "
+                                    f"{frames[k]}, slot {k + 1} = {frames[k + 1]}")
+        self.frames, self.prints = frames, prints
+        return frames.copy()
+
+    @staticmethod
+    def _disagree(prev, view):
+        k = int(np.flatnonzero(view[:prev.size] != prev[:view.size])[0])
+        return (f"video.tstamp[{k}] = {view[k]} but the record says frame {prev[k]}: keyframes "
+                "changed outside the frontend update (one record per DepthVideo)")
+
+    def _removed_slot(self, n, prints):
+        """Slot (old numbering) that rm_keyframe removed in this update, for an unshifted tstamp."""
+        if prints and self.prints:
+            for k in sorted(prints):
+                if k in self.prints and prints[k] != self.prints[k]:
+                    return k
+            raise KeyframeTimeError("a keyframe was removed but no keyframe image changed: "
+                                    "cannot locate it to correct DROID's unshifted tstamp")
+        return n - 1  # DROID 2022 frontend: rm_keyframe(t1 - 2), the newest slot before
+
+
+def read_euroc_image_times(csv_path):
+    """Image times in seconds, in image order, from a EuRoC `cam0/data.csv` (ns,filename rows;
+    '#' comments). Frame index k of DROID's EuRoC reader is row k."""
+    times = []
+    with open(csv_path) as f:
+        for line_no, line in enumerate(f, 1):
+            line = line.strip()
+            if not line or line.startswith("#"):
+                continue
+            try:
+                times.append(int(line.split(",")[0]) * 1e-9)
+            except ValueError:
+                raise ValueError(f"{csv_path}:{line_no}: expected 'timestamp_ns,filename', "
+                                 f"got {line!r}") from None
+    return np.asarray(times, dtype=np.float64)
+
+
 def dump_dba_snapshot(path, video, graph, snapshot_id, timestamps_s=None, compressed=True,
-                      include_inactive=False):
-    """Writes the current DBA factor graph of DROID-SLAM to `path` (SPEC §1 `.npz`, atomically).
+                      include_inactive=False, record=None, image_times_s=None, stereo_rig=None):
+    arrays = snapshot_arrays(video, graph, snapshot_id, timestamps_s=timestamps_s,
+                             include_inactive=include_inactive, record=record,
+                             image_times_s=image_times_s, stereo_rig=stereo_rig)
+    write_snapshot_npz(path, arrays, compressed)
+    return path
+
+
+dump_dba_snapshot.__doc__ = None  # set below, shared with snapshot_arrays
+
+
+def snapshot_arrays(video, graph, snapshot_id=None, timestamps_s=None, include_inactive=False,
+                    record=None, image_times_s=None, stereo_rig=None):
+    """Writes the current DBA factor graph of DROID-SLAM to `path` (conventions §1 `.npz`, atomically).
 
     video         DROID's DepthVideo: poses (≥N,7) T_cw, disps (≥N,H,W), intrinsics (≥N,4),
-                  tstamp (≥N,), counter.value = N, get_lock().
+                  tstamp (≥N,), counter.value = N, get_lock(); optional disps_sens (≥N,H,W)
+                  (RGB-D), images (to locate removed keyframes), stereo.
     graph         DROID's FactorGraph: ii, jj (E,), target, weight (1,E,H,W,2), last axis (x, y).
     snapshot_id   stored as 'id' (int64 scalar); None leaves 'id' out.
-    timestamps_s  optional keyframe times in seconds, N values (e.g. your image times indexed by
-                  video.tstamp[:N]); stored as float64 'timestamps_s'.
+    timestamps_s  optional keyframe times in seconds, N values; stored as float64 'timestamps_s'.
+    image_times_s optional time in seconds of every input image, indexed by image (frame) index
+                  (for EuRoC: read_euroc_image_times("cam0/data.csv")); gives 'timestamps_s'.
+    record        a KeyframeRecord kept across calls (one per video): corrects the stale `tstamp`
+                  of pre-2025 DROID after rm_keyframe. Without one, a fresh record still detects
+                  (and corrects) a removal in this very update.
+    stereo_rig    the transform of edges with ii == jj, [tx ty tz qx qy qz qw]; default DROID's
+                  DROID_STEREO_RIG, written only when such edges exist.
     compressed    np.savez_compressed (default) or np.savez.
     include_inactive  also dump the inactive edges that DROID's DBA used (see the module doc).
 
+    Extra keys: 't0' (int64, DROID's first optimized pose of this update, max(1, min(ii) + 1)
+    over the active edges), 'disps_sens' (float32 (N,H,W), only when some value is > 0) and
+    'stereo_rig' (float64 (7,), only with ii == jj edges).
+
     Raises ValueError, before writing anything, when the intrinsics of the N keyframes differ,
-    when an edge names a keyframe outside [0, N) or itself, or when shapes are inconsistent.
-    Returns `path`.
+    when an edge names a keyframe outside [0, N), when shapes are inconsistent, and
+    KeyframeTimeError when the keyframe frame indices cannot be established. Returns `path`.
     """
     with video.get_lock():
         n = int(video.counter.value)
         poses = to_numpy(video.poses[:n])
         disps = to_numpy(video.disps[:n])
         intrinsics = to_numpy(video.intrinsics[:n])
-        tstamp = to_numpy(video.tstamp[:n])
+        frames = (record if record is not None else KeyframeRecord()).update(video)
+        sens = getattr(video, "disps_sens", None)
+        sens = to_numpy(sens[:n]) if sens is not None else None
         ii, jj = to_numpy(graph.ii), to_numpy(graph.jj)
         target, weight = to_numpy(graph.target), to_numpy(graph.weight)
+        t0 = max(1, int(ii.min()) + 1) if ii.size else None
         if include_inactive and ii.size:
             # DROID's FactorGraph.update(use_inactive=True): inactive edges first, then active.
-            t0 = max(1, int(ii.min()) + 1)
             m = (graph.ii_inac >= t0 - 3) & (graph.jj_inac >= t0 - 3)
             ii = np.concatenate([to_numpy(graph.ii_inac[m]), ii])
             jj = np.concatenate([to_numpy(graph.jj_inac[m]), jj])
@@ -216,12 +384,75 @@ def dump_dba_snapshot(path, video, graph, snapshot_id, timestamps_s=None, compre
         "jj": jj.astype(np.int64).reshape(-1),
         "target": _plane_layout(target, "target").astype(np.float32, copy=False),
         "weight": _plane_layout(weight, "weight").astype(np.float32, copy=False),
-        "tstamp": tstamp.astype(np.float64).reshape(-1),
+        "tstamp": frames.astype(np.float64),
     }
+    if t0 is not None:
+        arrays["t0"] = np.array(t0, dtype=np.int64)
+    if sens is not None and (sens > 0).any():
+        arrays["disps_sens"] = np.where(sens > 0, sens, 0).astype(np.float32)
+    if (arrays["ii"] == arrays["jj"]).any():
+        rig = DROID_STEREO_RIG if stereo_rig is None else to_numpy(stereo_rig)
+        arrays["stereo_rig"] = np.asarray(rig, dtype=np.float64).reshape(-1)
+    if image_times_s is not None:
+        times = to_numpy(image_times_s).astype(np.float64).reshape(-1)
+        if frames.size and (frames.min() < 0 or frames.max() >= times.size):
+            raise KeyframeTimeError(f"keyframe frame index {int(frames.max())} is beyond the "
+                                    f"{times.size} image times given (image_times_s)")
+        arrays["timestamps_s"] = times[frames]
     if timestamps_s is not None:
         arrays["timestamps_s"] = to_numpy(timestamps_s).astype(np.float64)
     if snapshot_id is not None:
         arrays["id"] = np.array(int(snapshot_id), dtype=np.int64)
     check_snapshot(arrays, check_values=False)
-    write_snapshot_npz(path, arrays, compressed)
-    return path
+    return arrays
+
+
+dump_dba_snapshot.__doc__ = snapshot_arrays.__doc__
+snapshot_arrays.__doc__ = ("The conventions §1 arrays of DROID's current DBA (a dict), as "
+                           "dump_dba_snapshot writes them.\n" + (snapshot_arrays.__doc__ or ""))
+
+
+class DbaDumper:
+    """The hook to put in DROID's frontend: one call per update, and it never stops SLAM.
+
+        dumper = DbaDumper(out_dir, image_times_s=read_euroc_image_times(".../cam0/data.csv"))
+        ...
+        dumper(self.video, self.graph, self.count)       # in DroidFrontend._update / __update
+
+    Every failure (bad tensors, a disk error, keyframe times it cannot establish, a bug) is caught:
+    the first of each kind is reported once on stderr (`stream`), the update's snapshot is skipped,
+    and DROID goes on. `failures` counts them, `written` the snapshots written.
+    """
+
+    def __init__(self, out_dir, image_times_s=None, include_inactive=True, compressed=True,
+                 stereo_rig=None, pattern="window_{:06d}.npz", stream=None):
+        self.out_dir = os.fspath(out_dir)
+        self.image_times_s = None if image_times_s is None else to_numpy(image_times_s)
+        self.include_inactive, self.compressed = include_inactive, compressed
+        self.stereo_rig, self.pattern = stereo_rig, pattern
+        self.stream = stream
+        self.record = KeyframeRecord()
+        self.written, self.failures = 0, 0
+        self._reported = set()
+
+    def __call__(self, video, graph, count):
+        try:
+            os.makedirs(self.out_dir, exist_ok=True)
+            path = os.path.join(self.out_dir, self.pattern.format(int(count)))
+            dump_dba_snapshot(path, video, graph, count, compressed=self.compressed,
+                              include_inactive=self.include_inactive, record=self.record,
+                              image_times_s=self.image_times_s, stereo_rig=self.stereo_rig)
+            self.written += 1
+            return path
+        except Exception as exc:  # noqa: BLE001 -- the hook must never stop SLAM
+            self.failures += 1
+            if isinstance(exc, KeyframeTimeError):
+                self.record = KeyframeRecord()  # start afresh at the next update
+            kind = (type(exc).__name__, str(exc).split(":")[0])
+            if kind not in self._reported:
+                self._reported.add(kind)
+                with contextlib.suppress(Exception):
+                    print(f"dbacov_dump: snapshot {count} not written ({type(exc).__name__}: "
+                          f"{exc}); DROID-SLAM goes on, further failures of this kind are not "
+                          "reported", file=self.stream or sys.stderr, flush=True)
+            return None

@@ -50,7 +50,9 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
   std::vector<int> depth_index(static_cast<std::size_t>(s.numKeyframes()) * HW, -1);
   for (int e = 0; e < s.numEdges(); ++e) {
     const int i = static_cast<int>(s.ii[e]), j = static_cast<int>(s.jj[e]);
-    const Eigen::Isometry3d T_ji = s.T_cw(j) * s.T_wc(i);
+    // A stereo edge (ii == jj) reprojects by the fixed rig transform: no pose Jacobians.
+    const bool stereo = i == j;
+    const Eigen::Isometry3d T_ji = stereo ? s.stereoRig() : s.T_cw(j) * s.T_wc(i);
     for (int p = 0; p < HW; ++p) {
       const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
       if (!(d > 0)) continue;
@@ -68,8 +70,27 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
           di = static_cast<int>(sys.depth_vars.size());
           sys.depth_vars.emplace_back(i, p);
         }
+        if (stereo) f.J_i.setZero(), f.J_j.setZero();
         rows.push_back(
             {sys.slotOf(i), sys.slotOf(j), di, f.J_i.row(c), f.J_j.row(c), f.J_d[c], f.r[c], w});
+      }
+    }
+  }
+  // RGB-D: α·(d_sens − d)² on every source pixel with a sensor reading (r = d_sens − d).
+  if (s.disps_sens && o.sensor_depth_weight > 0) {
+    for (int i : sys.keyframes) {
+      if (std::find(s.ii.begin(), s.ii.end(), i) == s.ii.end()) continue;
+      for (int p = 0; p < HW; ++p) {
+        const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
+        const double ds = (*s.disps_sens)[static_cast<std::size_t>(i) * HW + p];
+        if (!(d > 0) || !(ds > 0)) continue;
+        int& di = depth_index[static_cast<std::size_t>(i) * HW + p];
+        if (di < 0) {
+          di = static_cast<int>(sys.depth_vars.size());
+          sys.depth_vars.emplace_back(i, p);
+        }
+        rows.push_back({sys.slotOf(i), sys.slotOf(i), di, Eigen::Matrix<double, 1, 6>::Zero(),
+                        Eigen::Matrix<double, 1, 6>::Zero(), -1.0, ds - d, o.sensor_depth_weight});
       }
     }
   }
@@ -92,7 +113,8 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
     if (std::find(sources.begin(), sources.end(), static_cast<int>(k)) == sources.end())
       sources.push_back(static_cast<int>(k));
   std::sort(sources.begin(), sources.end());
-  const int ga = sys.slotOf(sources[0]), gb = sys.slotOf(sources[1]);
+  const bool droid = o.gauge.type == GaugeOptions::Type::Droid;
+  const int ga = sys.slotOf(sources[0]), gb = sources.size() > 1 ? sys.slotOf(sources[1]) : -1;
   std::vector<Eigen::VectorXd> cols;  // columns of P
   auto unit = [&](int k) {
     Eigen::VectorXd v = Eigen::VectorXd::Zero(dim);
@@ -101,6 +123,10 @@ inline DenseFullSystem denseFullSystem(const Snapshot& s, const DbaOptions& o) {
   };
   for (int k = 0; k < dim; ++k) {
     const int slot = k < 6 * n ? k / 6 : -1;
+    if (droid) {  // DROID held the poses below t0
+      if (slot < 0 || sys.keyframes[slot] >= *s.t0) cols.push_back(unit(k));
+      continue;
+    }
     if (slot != ga && slot != gb) {
       cols.push_back(unit(k));
       continue;

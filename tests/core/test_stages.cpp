@@ -150,7 +150,7 @@ TEST(EnumNames, ParseAndToStringAreInverseAndNameTheValidChoices) {
     parseEnum<GaugeOptions::Type>("three-pose");
     FAIL();
   } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "unknown gauge 'three-pose', expected two-pose or minimal");
+    EXPECT_STREQ(e.what(), "unknown gauge 'three-pose', expected two-pose, minimal or droid");
   }
   EXPECT_THROW(parseEnum<SolverKind>("fast"), std::invalid_argument);
 }

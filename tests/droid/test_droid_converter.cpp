@@ -207,7 +207,7 @@ video = types.SimpleNamespace(
     poses=np.concatenate([poses, np.full((3, 7), np.nan, np.float32)]),
     disps=np.concatenate([disps, np.zeros((3, H, W), np.float32)]),
     intrinsics=np.concatenate([np.tile(K, (N, 1)), np.zeros((3, 4), np.float32)]),
-    tstamp=np.concatenate([tstamp, [99, 99, 99]]).astype(np.float32))
+    tstamp=np.concatenate([tstamp, [0, 0, 0]]).astype(np.float32))  # DROID zero-initializes the buffer; a larger value there means a removal
 graph = types.SimpleNamespace(ii=ii, jj=jj, target=last(tx, ty)[None], weight=last(wx, wy)[None])
 dump_dba_snapshot('dumped.npz', video, graph, snapshot_id=4, timestamps_s=tstamp / 30)
 )PY");

@@ -219,7 +219,8 @@ std::vector<BadNpz> corpus() {
             testing::setInt(testing::arrayOf(a, "jj"), 9, 0);
             testing::setInt(testing::arrayOf(a, "ii"), 9, 0);
           },
-          "edge 9 links keyframe 0 to itself (ii == jj)"),
+          "edge 9 links keyframe 0 to itself (ii == jj): a stereo edge needs the rig "
+          "transform, key 'stereo_rig'"),
       arrays("negative_weight", set("weight", 3 * 160 + 80 + 12, -0.5),
              "key 'weight' is negative (-0.500000) at edge 3 channel 1 pixel (x=2, y=1), expected "
              "confidences >= 0"),

@@ -44,7 +44,10 @@ void addEngineOptions(CLI::App& cli, DbaOptionOverrides& o) {
   addWeightScaleOption(cli, o.weight_scale, "the preset's: droid 0.001, paper 0.1");
   addEnumOption(
       cli, "--gauge", o.gauge,
-      "two-pose (priors on the first two keyframes of ii) or minimal (first fixed + scale)");
+      "two-pose (priors on the first two keyframes of ii), minimal (first fixed + scale) or "
+      "droid (the poses below the snapshot's t0 fixed, as DROID's BA held them)");
+  cli.add_option("--sensor-depth-weight", o.sensor_depth_weight,
+                 "RGB-D (key disps_sens): information of the depth-sensor factor (droid 0.05)");
   cli.add_option("--gauge-sigma-rot", o.gauge_sigma_rot,
                  "two-pose prior sigma of rotation, rad (0 = hard fix)");
   cli.add_option("--gauge-sigma-trans", o.gauge_sigma_trans,

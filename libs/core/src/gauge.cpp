@@ -32,6 +32,25 @@ GaugeParameterization makeGauge(const GaugeOptions& options, const Snapshot& s,
   GaugeParameterization g;
   g.basis.assign(n, Eigen::MatrixXd::Identity(6, 6));
   g.prior.assign(n, Eigen::MatrixXd());
+  if (options.type == GaugeOptions::Type::Droid) {
+    // DROID's BA holds every pose below t0 (docs/conventions.md §4): those slots are removed.
+    if (!s.t0)
+      throw InputError(s.source +
+                       ": gauge droid needs DROID's t0 (key 't0', written by dbacov_dump.py)");
+    for (int k = 0; k < n; ++k)
+      if (keyframes[k] < *s.t0) {
+        g.basis[k] = Eigen::MatrixXd(6, 0);
+        g.gauge_slots.push_back(k);
+      }
+    g.any_slot_reaches = true;
+    if (g.gauge_slots.empty())
+      throw NumericalError("gauge droid: no graph keyframe lies below t0 = " +
+                               std::to_string(*s.t0) + ", so DROID held no pose of this graph",
+                           {keyframes.front()});
+    g.offset.assign(n + 1, 0);
+    for (int k = 0; k < n; ++k) g.offset[k + 1] = g.offset[k] + static_cast<int>(g.basis[k].cols());
+    return g;
+  }
   g.gauge_slots = gaugeSlots(s, keyframes);
   const int a = g.gauge_slots[0], b = g.gauge_slots[1];
 
@@ -104,22 +123,26 @@ void checkGaugeReachesAll(const BlockSymmetricMatrix& S, const GaugeParameteriza
     for (const auto& [b, M] : S.row(a))
       if (a != b && !M.isZero(0)) parent[root(a)] = root(b);
 
-  const int ra = root(g.gauge_slots[0]), rb = root(g.gauge_slots[1]);
+  // two-pose / minimal: a part must hold both gauge keyframes; droid: some held keyframe.
+  const bool any = g.any_slot_reaches;
+  std::vector<char> held_root(n, 0);
+  for (int slot : g.gauge_slots) held_root[root(slot)] = 1;
+  const int ra = root(g.gauge_slots[0]), rb = root(g.gauge_slots.back());
   std::vector<int> unreached;
   for (int a = 0; a < n; ++a)
-    if (root(a) != ra || root(a) != rb) unreached.push_back(a);
+    if (any ? !held_root[root(a)] : (root(a) != ra || root(a) != rb)) unreached.push_back(a);
   if (unreached.empty()) return;
   // Name the first part that does not contain both gauge keyframes.
   const int r0 = root(unreached.front());
   std::vector<int> part;
   for (int a : unreached)
     if (root(a) == r0) part.push_back(keyframes[a]);
-  throw NumericalError(
-      "no gauge reaches keyframes " + joinKeyframes(part) +
-          ": they share no information with gauge keyframes " +
-          joinKeyframes({keyframes[g.gauge_slots[0]], keyframes[g.gauge_slots[1]]}) +
-          " (disconnected part of the graph)",
-      part);
+  std::vector<int> gauge_kf;
+  for (int slot : g.gauge_slots) gauge_kf.push_back(keyframes[slot]);
+  throw NumericalError("no gauge reaches keyframes " + joinKeyframes(part) +
+                           ": they share no information with gauge keyframes " +
+                           joinKeyframes(gauge_kf) + " (disconnected part of the graph)",
+                       part);
 }
 
 }  // namespace dbacov

@@ -5,6 +5,7 @@
 #include "dba_kernel.h"
 #include "dbacov/core/dba_factor.h"
 #include "dbacov/core/parallel.h"
+#include "depth_only_factors.h"
 
 namespace dbacov {
 namespace {
@@ -31,8 +32,11 @@ struct SourceResult {
 SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const PinholeIntrinsics& K,
                              const std::vector<double>& xn, const std::vector<double>& yn,
                              int src_slot, int src, std::vector<int> touched,
-                             const std::vector<EdgeRef>& edges, bool keep_depth_terms) {
+                             const std::vector<EdgeRef>& edges, bool keep_depth_terms,
+                             const detail::DepthOnlyTerms& depth_only) {
   SourceResult res;
+  const bool caller_keeps = keep_depth_terms;
+  keep_depth_terms |= depth_only.any;  // the correction needs the kernel's depth terms
   res.source_slot = src_slot;
   const int T = static_cast<int>(touched.size()), E = static_cast<int>(edges.size());
   const int HW = static_cast<int>(s.pixelsPerFrame());
@@ -90,7 +94,14 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
   W.triangularView<Eigen::StrictlyUpper>() = W.transpose();
   res.Sloc = res.Hloc - W;
   res.gS_loc = res.g_loc - Eigen::Map<const Eigen::VectorXd>(acc.gS.data(), 6 * T);
-  if (keep_depth_terms) {
+  if (depth_only.any) {  // RGB-D sensor / stereo factors on the depths (depth_only_factors.h)
+    res.stats.depths_used += detail::applyDepthOnlyTerms(
+        depth_only, o.depth_info_eps, 6 * T, acc.pixel, acc.h, acc.g, acc.B, res.Sloc, res.gS_loc);
+  }
+  res.stats.factors_used += depth_only.factors_used;
+  res.stats.factors_filtered += depth_only.factors_filtered;
+  res.stats.chi2 += depth_only.chi2;
+  if (caller_keeps) {
     res.depth.source_slot = src_slot;
     res.depth.touched = touched;
     res.depth.pixel = acc.pixel;
@@ -142,6 +153,7 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
     int slot;
     std::vector<int> touched;
     std::vector<EdgeRef> edges;
+    std::vector<int> stereo;  ///< edges with ii == jj (fixed rig transform, depths only)
   };
   std::vector<Task> tasks;
   for (int src_slot = 0; src_slot < n; ++src_slot) {
@@ -149,6 +161,10 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
     Task t{src_slot, {src_slot}, {}};
     for (int e = 0; e < s.numEdges(); ++e) {
       if (s.ii[e] != src) continue;
+      if (s.jj[e] == src) {
+        t.stereo.push_back(e);
+        continue;
+      }
       const int tgt_slot = ne.slot_of[s.jj[e]];
       auto it = std::find(t.touched.begin(), t.touched.end(), tgt_slot);
       const int pos = static_cast<int>(it - t.touched.begin());
@@ -161,8 +177,9 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
   std::vector<SourceResult> results(tasks.size());
   parallelFor(tasks.size(), [&](std::size_t i) {
     const Task& t = tasks[i];
-    results[i] = linearizeSource(s, o, K, xn, yn, t.slot, ne.keyframes[t.slot], t.touched, t.edges,
-                                 keep_depth_terms);
+    const int src = ne.keyframes[t.slot];
+    results[i] = linearizeSource(s, o, K, xn, yn, t.slot, src, t.touched, t.edges, keep_depth_terms,
+                                 detail::depthOnlyTerms(s, o, src, t.stereo));
   });
 
   // Merge in source order, so that the result does not depend on the number of threads.

@@ -33,7 +33,8 @@ DbaOptions DbaOptionOverrides::resolve() const {
   DbaOptions o = DbaOptions::preset(preset);
   if (weight_scale) o.weight_scale = *weight_scale;
   if (gauge) o.gauge.type = *gauge;
-  if (o.gauge.type == GaugeOptions::Type::Minimal) {
+  if (sensor_depth_weight) o.sensor_depth_weight = *sensor_depth_weight;
+  if (o.gauge.type != GaugeOptions::Type::TwoPose) {
     if (gauge_sigma_rot || gauge_sigma_trans)
       throw std::invalid_argument(
           "--gauge-sigma-rot/--gauge-sigma-trans apply to --gauge two-pose only");
@@ -61,6 +62,8 @@ void DbaOptions::validate() const {
   if (near && !positive(*near)) throw std::invalid_argument("near must be finite and > 0");
   if (far && !positive(*far)) throw std::invalid_argument("far must be finite and > 0");
   if (near && far && !(*near < *far)) throw std::invalid_argument("near must be < far");
+  if (!(std::isfinite(sensor_depth_weight) && sensor_depth_weight >= 0))
+    throw std::invalid_argument("sensor depth weight must be finite and >= 0");
   if (!(std::isfinite(gauge.sigma_rot) && gauge.sigma_rot >= 0))
     throw std::invalid_argument("gauge rotation sigma must be finite and >= 0");
   if (!(std::isfinite(gauge.sigma_trans) && gauge.sigma_trans >= 0))

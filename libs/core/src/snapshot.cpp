@@ -67,6 +67,11 @@ Eigen::Isometry3d Snapshot::T_cw(int k) const {
   return poseFromTQ(poses_cw.row(k).data());
 }
 
+Eigen::Isometry3d Snapshot::stereoRig() const {
+  if (!stereo_rig) throw InputError(source + ": no stereo rig transform (key 'stereo_rig')");
+  return poseFromTQ(stereo_rig->data());
+}
+
 Eigen::Isometry3d Snapshot::T_wc(int k) const {
   return T_cw(k).inverse();
 }
@@ -90,8 +95,9 @@ std::vector<int> Snapshot::graphKeyframes() const {
 std::vector<std::pair<int, int>> Snapshot::relativePairs() const {
   std::vector<std::pair<int, int>> pairs;
   for (std::size_t e = 0; e < ii.size(); ++e)
-    pairs.emplace_back(static_cast<int>(std::min(ii[e], jj[e])),
-                       static_cast<int>(std::max(ii[e], jj[e])));
+    if (ii[e] != jj[e])  // a stereo edge relates a keyframe to itself: no relative pose
+      pairs.emplace_back(static_cast<int>(std::min(ii[e], jj[e])),
+                         static_cast<int>(std::max(ii[e], jj[e])));
   const std::vector<int> kf = graphKeyframes();
   for (std::size_t a = 0; a + 1 < kf.size(); ++a) pairs.emplace_back(kf[a], kf[a + 1]);
   std::sort(pairs.begin(), pairs.end());
@@ -131,10 +137,24 @@ void Snapshot::validate() const {
         fail(*this, std::string("key '") + key + "' edge " + std::to_string(e) +
                         " names keyframe " + std::to_string(v) + ", expected 0.." +
                         std::to_string(N - 1));
-    if (ii[e] == jj[e])
+    if (ii[e] == jj[e] && !stereo_rig)
       fail(*this, "edge " + std::to_string(e) + " links keyframe " + std::to_string(ii[e]) +
-                      " to itself (ii == jj)");
+                      " to itself (ii == jj): a stereo edge needs the rig transform, key "
+                      "'stereo_rig'");
   }
+  if (disps_sens && disps_sens->size() != N * HW)
+    fail(*this, "key 'disps_sens' has " + std::to_string(disps_sens->size()) +
+                    " values, expected " + shapeStr({N, std::size_t(H), std::size_t(W)}) +
+                    " (N from 'poses', H×W from 'disps')");
+  if (stereo_rig &&
+      (firstNonFinite(stereo_rig->data(), 7) >= 0 || !(stereo_rig->tail<4>().norm() > 1e-6))) {
+    std::ostringstream os;
+    os << "key 'stereo_rig' is [" << stereo_rig->transpose()
+       << "], expected a finite pose [tx ty tz qx qy qz qw] with a unit quaternion";
+    fail(*this, os.str());
+  }
+  if (t0 && *t0 < 0)
+    fail(*this, "key 't0' is " + std::to_string(*t0) + ", expected a keyframe index >= 0");
 
   static const char* const kPoseColumns[7] = {"tx", "ty", "tz", "qx", "qy", "qz", "qw"};
   for (std::size_t k = 0; k < N; ++k) {
@@ -163,6 +183,14 @@ void Snapshot::validate() const {
   };
   if (long long bad = firstNonFinite(disps.data(), disps.size()); bad >= 0)
     fail(*this, "key 'disps' is non-finite at " + pixelOf(bad, 1, "keyframe"));
+  if (disps_sens) {
+    if (long long bad = firstNonFinite(disps_sens->data(), disps_sens->size()); bad >= 0)
+      fail(*this, "key 'disps_sens' is non-finite at " + pixelOf(bad, 1, "keyframe"));
+    for (std::size_t i = 0; i < disps_sens->size(); ++i)
+      if ((*disps_sens)[i] < 0)
+        fail(*this, "key 'disps_sens' is negative at " + pixelOf(i, 1, "keyframe") +
+                        ", expected an inverse depth >= 0 (0 = no sensor reading)");
+  }
   if (long long bad = firstNonFinite(target.data(), target.size()); bad >= 0)
     fail(*this, "key 'target' is non-finite at " + pixelOf(bad, 2, "edge"));
   if (long long bad = firstNonFinite(weight.data(), weight.size()); bad >= 0)

@@ -27,6 +27,10 @@ class SnapshotReader {
   std::vector<NpyArray> readAll(const std::vector<std::string>& keys) const {
     return npz_.readAll(keys);
   }
+  std::optional<NpyArray> optional(const std::string& key) const {
+    if (!npz_.has(key)) return std::nullopt;
+    return npz_.read(key);
+  }
 
   /// Throws unless a.shape == expected. `pattern` is the symbolic shape ("(E,2,H,W)"), shown when
   /// even the number of dimensions is wrong; `why` says where the sizes come from.
@@ -77,6 +81,9 @@ Snapshot readSnapshot(const std::string& path, NpzReader npz, std::int64_t index
   std::optional<NpyArray> timestamps_s, id;
   if (has_timestamps) timestamps_s = std::move(arrays[8]);
   if (has_id) id = std::move(arrays[has_timestamps ? 9 : 8]);
+  // The keys of RGB-D (disps_sens), stereo (stereo_rig) and DROID's gauge (t0): small or rare.
+  const std::optional<NpyArray> disps_sens = r.optional("disps_sens"),
+                                stereo_rig = r.optional("stereo_rig"), t0 = r.optional("t0");
 
   // Shapes first (cheap, and the most useful message), then dtypes through the conversions.
   r.expectNdim("poses", poses, 2, "(N,7)");
@@ -94,9 +101,14 @@ Snapshot readSnapshot(const std::string& path, NpzReader npz, std::int64_t index
     r.expectShape(key, *a, {E, 2, H, W}, "(E,2,H,W)", "E,2,H,W from 'ii' and 'disps'");
   r.expectShape("tstamp", tstamp, {N}, "(N,)", "N from 'poses'");
   if (timestamps_s) r.expectShape("timestamps_s", *timestamps_s, {N}, "(N,)", "N from 'poses'");
-  if (id && !id->shape.empty() && id->shape != std::vector<std::size_t>{1})
-    throw InputError(r.context("id") + " has shape " + shapeToString(id->shape) +
-                     ", expected () or (1,)");
+  for (const auto& [key, a] :
+       {std::pair<const char*, const std::optional<NpyArray>*>{"id", &id}, {"t0", &t0}})
+    if (*a && !(*a)->shape.empty() && (*a)->shape != std::vector<std::size_t>{1})
+      throw InputError(r.context(key) + " has shape " + shapeToString((*a)->shape) +
+                       ", expected () or (1,)");
+  if (disps_sens)
+    r.expectShape("disps_sens", *disps_sens, {N, H, W}, "(N,H,W)", "N,H,W from 'disps'");
+  if (stereo_rig) r.expectShape("stereo_rig", *stereo_rig, {7}, "(7,)", "[tx ty tz qx qy qz qw]");
 
   Snapshot s;
   s.source = path;
@@ -118,6 +130,12 @@ Snapshot readSnapshot(const std::string& path, NpzReader npz, std::int64_t index
   s.tstamp = npyToDoubles(tstamp, r.context("tstamp"));
   if (timestamps_s) s.timestamps_s = npyToDoubles(*timestamps_s, r.context("timestamps_s"));
   if (id) s.id = npyToInt64s(*id, r.context("id")).at(0);
+  if (disps_sens) s.disps_sens = npyToFloats(*disps_sens, r.context("disps_sens"));
+  if (stereo_rig) {
+    const std::vector<double> v = npyToDoubles(*stereo_rig, r.context("stereo_rig"));
+    s.stereo_rig = Eigen::Map<const Eigen::Matrix<double, 7, 1>>(v.data());
+  }
+  if (t0) s.t0 = npyToInt64s(*t0, r.context("t0")).at(0);
   s.validate();
   return s;
 }
@@ -152,6 +170,11 @@ void saveSnapshotNpz(const std::string& path, const Snapshot& s, bool compressed
   w.add("tstamp", makeNpy(s.tstamp, {N}));
   if (s.timestamps_s) w.add("timestamps_s", makeNpy(*s.timestamps_s, {N}));
   if (s.id) w.add("id", makeNpy(std::vector<std::int64_t>{*s.id}, {}));
+  if (s.disps_sens) w.add("disps_sens", makeNpy(*s.disps_sens, {N, H, W}));
+  if (s.stereo_rig)
+    w.add("stereo_rig",
+          makeNpy(std::vector<double>(s.stereo_rig->data(), s.stereo_rig->data() + 7), {7}));
+  if (s.t0) w.add("t0", makeNpy(std::vector<std::int64_t>{*s.t0}, {}));
   w.commit();
 }
 

@@ -24,7 +24,9 @@ CONVERTER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
                          "convert_pickle_dumps.py")
 SPEC = {"poses": np.float32, "disps": np.float32, "intrinsics": np.float32, "ii": np.int64,
         "jj": np.int64, "target": np.float32, "weight": np.float32, "tstamp": np.float64,
-        "timestamps_s": np.float64, "id": np.int64}
+        "timestamps_s": np.float64, "id": np.int64, "t0": np.int64, "disps_sens": np.float32,
+        "stereo_rig": np.float64}
+EXTRA = ("timestamps_s", "t0", "disps_sens", "stereo_rig")  # written only in some cases
 
 
 class FakeTensor:
@@ -79,7 +81,9 @@ class FakeVideo:
         self.poses = wrap(poses)
         self.disps = wrap(rng.uniform(0.1, 2.0, size=(capacity, h, w)).astype(np.float32))
         self.intrinsics = wrap(intr)
-        self.tstamp = wrap(np.arange(capacity, dtype=np.float32) * 3)
+        tstamp = np.arange(capacity, dtype=np.float32) * 3
+        tstamp[n:] = 0  # DROID's buffer is zero beyond what was ever appended
+        self.tstamp = wrap(tstamp)
         self.locked = 0
 
     @contextlib.contextmanager
@@ -137,12 +141,13 @@ class DumpTest(unittest.TestCase):
             self.assertEqual(video.locked, 1)
             n, e, h, w = self.N, len(self.II), self.H, self.W
             with np.load(path) as z:
-                self.assertEqual(sorted(z.files), sorted(k for k in SPEC if k != "timestamps_s"))
+                self.assertEqual(sorted(z.files),
+                                 sorted([k for k in SPEC if k not in EXTRA] + ["t0"]))
                 for k in z.files:
                     self.assertEqual(z[k].dtype, SPEC[k], k)
                 shapes = {"poses": (n, 7), "disps": (n, h, w), "intrinsics": (4,), "ii": (e,),
                           "jj": (e,), "target": (e, 2, h, w), "weight": (e, 2, h, w),
-                          "tstamp": (n,), "id": ()}
+                          "tstamp": (n,), "id": (), "t0": ()}
                 self.assertEqual({k: z[k].shape for k in z.files}, shapes)
                 src = {k: np.asarray(getattr(video, k)._a if wrap is FakeTensor
                                      else getattr(video, k)) for k in ("poses", "disps", "tstamp")}
@@ -240,6 +245,210 @@ class DumpTest(unittest.TestCase):
         self.assertEqual(os.listdir(self.dir), ["s.npz"])
 
 
+# --- keyframe times, RGB-D, stereo, the safe hook --------------------------------------------------
+
+class FakeFrontendVideo:
+    """A DepthVideo driven as DROID's frontend drives it: append() at counter.value (tstamp, image),
+    rm_keyframe() shifting every buffer, with tstamp shifted (current DROID) or not (releases
+    before 2025)."""
+
+    def __init__(self, capacity=16, h=3, w=4, shift_tstamp=True, images=True, rgbd=False):
+        self.counter = types.SimpleNamespace(value=0)
+        self.shift_tstamp = shift_tstamp
+        rng = np.random.default_rng(5)
+        poses = np.zeros((capacity, 7), np.float32)
+        poses[:, 6] = 1
+        poses[:, :3] = rng.normal(size=(capacity, 3))
+        self.poses = FakeTensor(poses)
+        self.disps = FakeTensor(rng.uniform(0.2, 1.0, size=(capacity, h, w)).astype(np.float32))
+        self.intrinsics = FakeTensor(np.tile(np.float32([50, 50, 1.5, 1]), (capacity, 1)))
+        self.tstamp = FakeTensor(np.zeros(capacity, np.float32))
+        self.images = FakeTensor(np.zeros((capacity, 3, 8, 8), np.uint8)) if images else None
+        self.disps_sens = FakeTensor(np.zeros((capacity, h, w), np.float32))
+        self.rgbd = rgbd
+        self.truth = []  # the frame index of every slot, kept by the test
+
+    @contextlib.contextmanager
+    def get_lock(self):
+        yield
+
+    def append(self, frame):
+        k = self.counter.value
+        self.tstamp._a[k] = frame
+        if self.images is not None:
+            self.images._a[k] = np.random.default_rng(frame).integers(0, 255, (3, 8, 8))
+        if self.rgbd:
+            self.disps_sens._a[k] = 1.0 / (1.0 + 0.1 * frame)
+            self.disps_sens._a[k, 0, 0] = 0  # a pixel without sensor depth
+        self.counter.value += 1
+        self.truth.append(frame)
+
+    def rm_keyframe(self, ix):
+        t = self.counter.value
+        names = ["poses", "disps", "intrinsics", "disps_sens"] + \
+            (["images"] if self.images is not None else []) + \
+            (["tstamp"] if self.shift_tstamp else [])
+        for name in names:
+            a = getattr(self, name)._a
+            a[ix:t - 1] = a[ix + 1:t].copy()
+        self.counter.value -= 1
+        del self.truth[ix]
+
+
+def frontend_graph(video, stereo=False):
+    n = video.counter.value
+    ii = [k for k in range(max(0, n - 4), n) for j in range(max(0, n - 4), n) if j != k]
+    jj = [j for k in range(max(0, n - 4), n) for j in range(max(0, n - 4), n) if j != k]
+    if stereo:
+        ii, jj = ii + list(range(max(0, n - 4), n)), jj + list(range(max(0, n - 4), n))
+    h, w = video.disps.shape[1:]
+    tx, ty, wx, wy = pixel_planes(len(ii), h, w, np.random.default_rng(n))
+    graph = FakeGraph(ii, jj, tx, ty, wx, wy)
+    graph.ii_inac = graph.jj_inac = FakeTensor(np.zeros(0, np.int64))  # as DROID starts
+    graph.target_inac = graph.weight_inac = FakeTensor(np.zeros((1, 0, h, w, 2), np.float32))
+    return graph
+
+
+class KeyframeTimesTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.dir = self.tmp.name
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def run_frontend(self, video, removal_slot, steps=10, **dump_kw):
+        """Frames 0, 3, 6, ...; the first 4 are the initialization; every third update removes
+        `removal_slot(t1)` (t1 = counter after the append) as DROID's frontend does. Returns the
+        dumped tstamp and the truth of every update."""
+        record = dbacov_dump.KeyframeRecord()
+        frame, out = 0, []
+        for _ in range(4):
+            video.append(frame)
+            frame += 3
+        for step in range(steps):
+            video.append(frame)
+            frame += 3
+            if step % 3 == 1:
+                video.rm_keyframe(removal_slot(video.counter.value))
+            path = os.path.join(self.dir, f"s{step}.npz")
+            dbacov_dump.dump_dba_snapshot(path, video, frontend_graph(video), step,
+                                          record=record, **dump_kw)
+            with np.load(path) as z:
+                out.append((z["tstamp"].astype(int).tolist(), list(video.truth),
+                            z["timestamps_s"] if "timestamps_s" in z.files else None))
+        return record, out
+
+    def test_current_droid_shifted_tstamp_is_kept(self):
+        video = FakeFrontendVideo(shift_tstamp=True)
+        record, out = self.run_frontend(video, lambda t1: t1 - 3)
+        for got, truth, _ in out:
+            self.assertEqual(got, truth)
+        self.assertEqual(record.stale_corrections, 0)
+
+    def test_old_droid_stale_tstamp_is_corrected(self):
+        # DROID 2022: rm_keyframe(t1 - 2) without shifting tstamp. The raw buffer goes wrong
+        # (checked below), the dump stays right, with and without images to locate the removal.
+        for images in (True, False):
+            with self.subTest(images=images):
+                video = FakeFrontendVideo(shift_tstamp=False, images=images)
+                record, out = self.run_frontend(video, lambda t1: t1 - 2)
+                for got, truth, _ in out:
+                    self.assertEqual(got, truth)
+                self.assertEqual(record.stale_corrections, 3)
+                n = video.counter.value
+                self.assertNotEqual(video.tstamp._a[:n].astype(int).tolist(), video.truth)
+
+    def test_old_droid_removing_another_slot_is_located_by_images(self):
+        video = FakeFrontendVideo(shift_tstamp=False, images=True)
+        record, out = self.run_frontend(video, lambda t1: t1 - 3)
+        for got, truth, _ in out:
+            self.assertEqual(got, truth)
+
+    def test_old_droid_without_record_still_corrects_this_updates_removal(self):
+        video = FakeFrontendVideo(shift_tstamp=False, images=False)
+        for f in range(0, 15, 3):
+            video.append(f)
+        video.rm_keyframe(video.counter.value - 2)
+        path = os.path.join(self.dir, "s.npz")
+        dbacov_dump.dump_dba_snapshot(path, video, frontend_graph(video), 1)
+        with np.load(path) as z:
+            self.assertEqual(z["tstamp"].astype(int).tolist(), video.truth)
+
+    def test_image_times_give_timestamps_s(self):
+        times = 1403636579.76 + 0.05 * np.arange(100)
+        video = FakeFrontendVideo(shift_tstamp=False)
+        _, out = self.run_frontend(video, lambda t1: t1 - 2, image_times_s=times)
+        for _, truth, secs in out:
+            np.testing.assert_array_equal(secs, times[truth])
+        csv = os.path.join(self.dir, "data.csv")
+        with open(csv, "w") as f:
+            f.write("#timestamp [ns],filename\n")
+            f.writelines(f"{1403636579763555584 + 50000000 * k},{k}.png\n" for k in range(5))
+        np.testing.assert_allclose(dbacov_dump.read_euroc_image_times(csv),
+                                   1403636579.763555584 + 0.05 * np.arange(5), rtol=0, atol=1e-6)
+        with self.assertRaisesRegex(dbacov_dump.KeyframeTimeError, "beyond the 10 image times"):
+            self.run_frontend(FakeFrontendVideo(), lambda t1: t1 - 3, image_times_s=times[:10])
+
+    def test_inconsistent_history_is_refused(self):
+        video = FakeFrontendVideo()
+        record = dbacov_dump.KeyframeRecord()
+        for f in (0, 3, 6, 9):
+            video.append(f)
+        record.update(video)
+        video.append(12)
+        video.append(15)  # two keyframes between calls
+        with self.assertRaisesRegex(dbacov_dump.KeyframeTimeError, "went from 4 to 6"):
+            record.update(video)
+        video = FakeFrontendVideo()
+        for f in (0, 3, 3):
+            video.append(f)
+        with self.assertRaisesRegex(dbacov_dump.KeyframeTimeError, "not increasing: slot 1 = 3"):
+            dbacov_dump.KeyframeRecord().update(video)
+
+    def test_rgbd_and_stereo_keys_and_t0(self):
+        video = FakeFrontendVideo(rgbd=True)
+        for f in range(0, 18, 3):
+            video.append(f)
+        path = os.path.join(self.dir, "s.npz")
+        dbacov_dump.dump_dba_snapshot(path, video, frontend_graph(video, stereo=True), 1)
+        with np.load(path) as z:
+            np.testing.assert_array_equal(z["disps_sens"], video.disps_sens._a[:6])
+            self.assertEqual(z["disps_sens"].dtype, np.float32)
+            np.testing.assert_array_equal(z["stereo_rig"], [-0.1, 0, 0, 0, 0, 0, 1])
+            self.assertEqual(z["stereo_rig"].dtype, np.float64)
+            self.assertEqual(int(z["t0"]), 3)  # min(ii) = 2 -> DROID's t0 = 3
+            self.assertTrue((z["ii"] == z["jj"]).any())
+        mono = FakeFrontendVideo()
+        for f in range(0, 18, 3):
+            mono.append(f)
+        dbacov_dump.dump_dba_snapshot(path, mono, frontend_graph(mono), 1)
+        with np.load(path) as z:
+            self.assertNotIn("disps_sens", z.files)  # all zero: not RGB-D
+            self.assertNotIn("stereo_rig", z.files)
+
+    def test_safe_hook_never_raises_and_reports_each_kind_once(self):
+        import io
+        video = FakeFrontendVideo()
+        for f in range(0, 15, 3):
+            video.append(f)
+        stream = io.StringIO()
+        dumper = dbacov_dump.DbaDumper(os.path.join(self.dir, "out"), stream=stream)
+        self.assertTrue(dumper(video, frontend_graph(video), 1).endswith("window_000001.npz"))
+        broken = frontend_graph(video)
+        broken.weight = FakeTensor(broken.weight._a[0])
+        for count in (2, 3, 4):
+            self.assertIsNone(dumper(video, broken, count))
+        self.assertIsNone(dumper(video, None, 5))  # a bug-like failure (AttributeError)
+        self.assertEqual((dumper.written, dumper.failures), (1, 4))
+        lines = stream.getvalue().splitlines()
+        self.assertEqual(len(lines), 2, lines)
+        self.assertRegex(lines[0], r"snapshot 2 not written \(ValueError: ")
+        self.assertIn("DROID-SLAM goes on", lines[0])
+        self.assertRegex(lines[1], r"snapshot 5 not written \(AttributeError")
+        self.assertEqual(sorted(os.listdir(os.path.join(self.dir, "out"))), ["window_000001.npz"])
+
+
 # --- converter ------------------------------------------------------------------------------------
 
 def make_dump(rng, n=4, e=5, h=3, w=5, planes="(1,E,H,W,2)", disps="(N,H,W)", poses="(N,7)",
@@ -268,8 +477,9 @@ def make_dump(rng, n=4, e=5, h=3, w=5, planes="(1,E,H,W,2)", disps="(N,H,W)", po
     return dump, expected
 
 
-def run_converter(*args):
-    r = subprocess.run([sys.executable, "-B", CONVERTER, *args], capture_output=True, text=True)
+def run_converter(*args, env=None):
+    r = subprocess.run([sys.executable, "-B", CONVERTER, *args], capture_output=True, text=True,
+                       env=env)
     return r.returncode, r.stdout, r.stderr
 
 
@@ -412,7 +622,13 @@ class ConverterTest(unittest.TestCase):
             path = self.save("t.pkl", {"poses": Tensor()})
         finally:
             del sys.modules["torch"]
-        code, _, stderr = run_converter(path, "-o", os.path.join(self.dir, "out"))
+        # Whether or not torch is installed here: a 'torch' that cannot be imported shadows it.
+        shadow = os.path.join(self.dir, "no_torch", "torch")
+        os.makedirs(shadow)
+        with open(os.path.join(shadow, "__init__.py"), "w") as f:
+            f.write("raise ModuleNotFoundError(\"No module named 'torch'\", name='torch')\n")
+        env = dict(os.environ, PYTHONPATH=os.path.dirname(shadow))
+        code, _, stderr = run_converter(path, "-o", os.path.join(self.dir, "out"), env=env)
         self.assertEqual(code, 1)
         self.assertRegex(stderr, r"t\.pkl: the pickle holds torch tensors and PyTorch is not "
                                  r"installed: install torch")

@@ -25,6 +25,9 @@ struct GaugeOptions {
     /// Hard-fix the first such keyframe (6 DoF) and only the distance between the first two
     /// keyframe centres (scale, 1 DoF): the second keyframe keeps 5 free DoF.
     Minimal,
+    /// DROID-SLAM's own gauge in that update: hard-fix every graph keyframe below the snapshot's
+    /// `t0` = max(1, min(ii) + 1) (DROID's BA optimizes only poses t0..t1−1). Needs the key 't0'.
+    Droid,
   };
   Type type = Type::TwoPose;
   double sigma_rot = 0.0;    ///< radians, TwoPose only
@@ -50,6 +53,10 @@ struct DbaOptions {
   /// their factors contribute only through the pose block (b_k is then negligible, see
   /// linearization.cpp).
   double depth_info_eps = 1e-12;
+  /// RGB-D (snapshot key 'disps_sens'): information α of the depth-sensor factor
+  /// α·(d − d_sens)² on every source pixel with d_sens > 0, in (inverse depth)^-2. DROID's BA
+  /// (droid_kernels.cu) uses α = 0.05 with its 0.001-weighted reprojection factors; 0 = off.
+  double sensor_depth_weight = 0.05;
   GaugeOptions gauge;
 
   /// DROID's DBA weight scale (droid_kernels.cu): the `droid` preset's, and the scale that
@@ -87,14 +94,16 @@ enum class Ordering {
 
 /// The one builder of DbaOptions from what a user gave (flags, JSON, Python keywords): the preset,
 /// then every value that is set. `gauge` names the gauge type only: a two-pose gauge keeps the
-/// preset's (or the given) sigmas, a minimal gauge has none (giving a sigma with it is an error).
+/// preset's (or the given) sigmas, the minimal and droid gauges have none (giving a sigma with
+/// them is an error).
 struct DbaOptionOverrides {
   Preset preset = Preset::Droid;
   std::optional<double> weight_scale;
   std::optional<GaugeOptions::Type> gauge;
   std::optional<double> gauge_sigma_rot, gauge_sigma_trans;
   std::optional<double> near, far;
-  std::optional<double> min_depth_ratio;  ///< 0 turns DROID's depth-ratio rule off
+  std::optional<double> min_depth_ratio;      ///< 0 turns DROID's depth-ratio rule off
+  std::optional<double> sensor_depth_weight;  ///< RGB-D: the depth-sensor factor's α
 
   /// The options; throws std::invalid_argument for values out of their domain (DbaOptions::
   /// validate's messages) or contradicting ones.
@@ -116,8 +125,10 @@ struct CovarianceOptions {
 template <>
 struct EnumNames<GaugeOptions::Type> {
   static constexpr const char* what = "gauge";
-  static constexpr std::array<std::pair<GaugeOptions::Type, const char*>, 2> entries{
-      {{GaugeOptions::Type::TwoPose, "two-pose"}, {GaugeOptions::Type::Minimal, "minimal"}}};
+  static constexpr std::array<std::pair<GaugeOptions::Type, const char*>, 3> entries{
+      {{GaugeOptions::Type::TwoPose, "two-pose"},
+       {GaugeOptions::Type::Minimal, "minimal"},
+       {GaugeOptions::Type::Droid, "droid"}}};
 };
 template <>
 struct EnumNames<Preset> {

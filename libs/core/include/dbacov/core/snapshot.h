@@ -41,6 +41,15 @@ struct Snapshot {
   std::vector<float> target, weight;
   std::vector<double> tstamp;
   std::optional<std::vector<double>> timestamps_s;
+  /// RGB-D: sensor inverse depth (1/m) per pixel, N×H×W like disps, 0 = no reading (key
+  /// 'disps_sens'). Adds DROID's depth-sensor factor α·(d − d_sens)² on pixels with d_sens > 0.
+  std::optional<std::vector<float>> disps_sens;
+  /// Stereo: the fixed transform Y = T·X of every edge with ii == jj (key 'stereo_rig',
+  /// [tx ty tz qx qy qz qw]; DROID's is a translation (−0.1, 0, 0)). Required by such edges.
+  std::optional<Eigen::Matrix<double, 7, 1>> stereo_rig;
+  /// DROID's first optimized pose of that update, max(1, min(ii) + 1) (key 't0'): DROID held
+  /// every pose below it (gauge `droid`).
+  std::optional<std::int64_t> t0;
 
   int numKeyframes() const { return static_cast<int>(poses_cw.rows()); }
   int numEdges() const { return static_cast<int>(ii.size()); }
@@ -48,6 +57,9 @@ struct Snapshot {
 
   /// Snapshot label used in outputs: `id` if present, else the position in the input.
   std::int64_t label() const { return id ? *id : index; }
+
+  /// The stereo rig transform (stereo_rig must be set), quaternion normalized.
+  Eigen::Isometry3d stereoRig() const;
 
   /// Camera-to-world pose of keyframe k (the state of conventions §3), from the stored T_cw.
   Eigen::Isometry3d T_wc(int k) const;
@@ -77,10 +89,10 @@ struct Snapshot {
   std::vector<std::pair<int, int>> relativePairs() const;
 
   /// Checks shapes, index ranges and values (conventions §1). Throws InputError naming `source`,
-  /// the key and what was expected: inconsistent shapes, ii/jj out of range or equal, non-finite
-  /// poses or zero-norm quaternions, non-finite intrinsics/disps/targets/weights/time stamps,
-  /// negative weights, weights that are zero everywhere (no information at all), non-positive focal
-  /// lengths.
+  /// the key and what was expected: inconsistent shapes, ii/jj out of range or equal (ii == jj
+  /// only with stereo_rig), non-finite poses or zero-norm quaternions, non-finite
+  /// intrinsics/disps/targets/weights/time stamps, negative weights, weights that are zero
+  /// everywhere (no information at all), non-positive focal lengths.
   void validate() const;
 };
 

@@ -10,6 +10,7 @@
 // two-pose: the two lowest-indexed keyframes in `ii` get a prior diag(σ_t⁻², σ_t⁻², σ_t⁻²,
 // σ_r⁻²...)
 //           in [ρ; φ]; a component with σ = 0 is removed instead (hard fix).
+// droid:    every graph keyframe below the snapshot's t0 (DROID's fixed poses) is removed.
 // minimal:  the first keyframe is removed (m = 0); for the second, only the direction that changes
 //           the distance between the two centres is removed. With c_a, c_b the centres and
 //           u = (c_b − c_a)/|c_b − c_a|, the centre moves by δc_b = R_b ρ_b, so the distance
@@ -32,6 +33,8 @@ struct GaugeParameterization {
   std::vector<Eigen::MatrixXd> prior;  ///< per slot, m_a×m_a or empty
   std::vector<int> offset;             ///< reduced offset of each slot; offset.back() = dim
   std::vector<int> gauge_slots;        ///< the slots that carry the gauge
+  /// droid: a graph part is reached by any held slot (two-pose/minimal: by both gauge slots).
+  bool any_slot_reaches = false;
 
   int dim() const { return offset.back(); }
   int dimOf(int slot) const { return offset[slot + 1] - offset[slot]; }

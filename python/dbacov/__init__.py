@@ -1,0 +1,84 @@
+"""dbacov: consistent pose covariances from DROID-SLAM's dense bundle adjustment (DBA).
+
+    import dbacov
+    snap = dbacov.load("snapshot.npz")               # or dbacov.Snapshot(poses=..., ...)
+    cov = dbacov.Covariance(snap, preset="droid")    # dba-covariance's options as keywords
+    cov.keyframes                                     # graph keyframes
+    cov.marginal(k), cov.joint(a, b), cov.relative(a, b)   # numpy, tangent [rho; phi]
+    cov.marginals()                                   # (K, 6, 6)
+    cov.inverse_depth_sigma(k)                        # (H, W)
+    snap = dbacov.from_droid(video, graph)            # DROID's DepthVideo and FactorGraph
+
+Arrays may be NumPy arrays or torch tensors (any device: read through .detach().cpu()); NumPy
+arrays of the snapshot dtypes (float32 disps/target/weight, float64 poses/tstamp, int64 ii/jj),
+C-contiguous, are read in place. Errors are dbacov.InputError (a ValueError) and
+dbacov.NumericalError (an ArithmeticError) with the messages of the command-line tools.
+"""
+
+import numpy as np
+
+from . import _droid
+from ._dbacov import Covariance as _Covariance
+from ._dbacov import InputError, NumericalError
+from ._dbacov import Snapshot as _Snapshot
+from ._dbacov import load
+
+__all__ = ["load", "Snapshot", "Covariance", "from_droid", "InputError", "NumericalError"]
+
+_DTYPES = {"poses": np.float64, "disps": np.float32, "intrinsics": np.float64, "ii": np.int64,
+           "jj": np.int64, "target": np.float32, "weight": np.float32, "tstamp": np.float64,
+           "timestamps_s": np.float64, "disps_sens": np.float32, "stereo_rig": np.float64}
+
+
+def _array(x, dtype):
+    """A NumPy view of x when it is already of that dtype and C-contiguous, else a converted copy.
+    torch tensors (CPU or CUDA) go through .detach().cpu() (no copy for CPU tensors)."""
+    if hasattr(x, "detach"):
+        x = x.detach().cpu().numpy()
+    return np.ascontiguousarray(x, dtype=dtype)
+
+
+def Snapshot(*, poses, disps, intrinsics, ii, jj, target, weight, tstamp, timestamps_s=None,
+             id=None, disps_sens=None, stereo_rig=None, t0=None, source="<python>"):
+    """A snapshot from arrays in the layout of conventions §1 (poses T_cw (N,7), disps (N,H,W),
+    intrinsics (4,), ii/jj (E,), target/weight (E,2,H,W) x first, tstamp (N,)); optional
+    timestamps_s (N,), id, disps_sens (N,H,W) for RGB-D, stereo_rig (7,) for ii == jj edges,
+    t0 (DROID's first optimized pose). Checked as the file loader checks a .npz."""
+    kw = {k: v for k, v in dict(poses=poses, disps=disps, intrinsics=intrinsics, ii=ii, jj=jj,
+                                target=target, weight=weight, tstamp=tstamp,
+                                timestamps_s=timestamps_s, disps_sens=disps_sens,
+                                stereo_rig=stereo_rig).items() if v is not None}
+    arrays = {k: _array(v, _DTYPES[k]) for k, v in kw.items()}
+    if "intrinsics" in arrays:
+        arrays["intrinsics"] = arrays["intrinsics"].reshape(-1)
+    return _Snapshot(**arrays, id=None if id is None else int(id),
+                     t0=None if t0 is None else int(t0), source=source)
+
+
+def Covariance(snapshot, preset="droid", **options):
+    """The covariance engine on `snapshot` (a Snapshot or a path). Keywords mirror dba-covariance:
+    weight_scale, gauge ("two-pose" | "minimal" | "droid"), gauge_sigma_rot, gauge_sigma_trans,
+    near, far, min_depth_ratio, sensor_depth_weight, solver ("sparse" | "dense"), ordering,
+    threads; depth_sigma=True keeps what inverse_depth_sigma needs."""
+    if not isinstance(snapshot, _Snapshot):
+        snapshot = load(str(snapshot))
+    return _Covariance(snapshot, preset=preset, **options)
+
+
+def from_droid(video, graph, include_inactive=True, record=None, image_times_s=None,
+               stereo_rig=None, snapshot_id=None):
+    """The current DBA factor graph of DROID-SLAM (its DepthVideo and FactorGraph, CPU or CUDA
+    tensors) as a Snapshot, exactly as share/droid/dbacov_dump.py would write it: true keyframe
+    frame indices (pass one `record`, a KeyframeRecord, across calls), t0, disps_sens for RGB-D,
+    stereo_rig for stereo edges, timestamps_s from `image_times_s`."""
+    arrays = _droid.snapshot_arrays(video, graph, snapshot_id, include_inactive=include_inactive,
+                                    record=record, image_times_s=image_times_s,
+                                    stereo_rig=stereo_rig)
+    t0 = arrays.pop("t0", None)
+    sid = arrays.pop("id", None)
+    return Snapshot(**arrays, id=None if sid is None else int(sid),
+                    t0=None if t0 is None else int(t0), source="<droid>")
+
+
+KeyframeRecord = _droid.KeyframeRecord
+read_euroc_image_times = _droid.read_euroc_image_times

@@ -1,0 +1,356 @@
+// `import dbacov` — the C++ part (dbacov._dbacov): snapshots, the covariance engine and the
+// project's errors for Python. The pure-Python wrapper (dbacov/__init__.py) adds torch tensors,
+// keyword defaults and dbacov.from_droid.
+//
+// Arrays in: NumPy arrays of the snapshot dtypes (conventions §1) are read in place (pybind11
+// converts only when the dtype or layout differs); the Snapshot then owns one copy of them, as the
+// engine works on its own storage. Arrays out: NumPy arrays owning their data. The GIL is released
+// while the engine computes. InputError → dbacov.InputError (a ValueError), NumericalError →
+// dbacov.NumericalError (an ArithmeticError), std::invalid_argument → ValueError, same messages.
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "dbacov/core/covariance.h"
+#include "dbacov/core/errors.h"
+#include "dbacov/core/options.h"
+#include "dbacov/core/threads.h"
+#include "dbacov/core/snapshot.h"
+#include "dbacov/io/snapshot_npz.h"
+
+namespace py = pybind11;
+using namespace dbacov;
+
+namespace {
+
+template <typename T>
+using CArray = py::array_t<T, py::array::c_style | py::array::forcecast>;
+
+template <typename T>
+std::vector<T> toVector(const CArray<T>& a) {
+  return std::vector<T>(a.data(), a.data() + a.size());
+}
+
+std::string shapeOf(const py::array& a) {
+  std::string s = "(";
+  for (py::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? "," : "") + std::to_string(a.shape(k));
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+void expectNdim(const py::array& a, int ndim, const char* key, const char* expected) {
+  if (a.ndim() != ndim)
+    throw InputError(std::string("<python>: key '") + key + "' has shape " + shapeOf(a) +
+                     ", expected " + expected);
+}
+
+Snapshot makeSnapshot(const CArray<double>& poses, const CArray<float>& disps,
+                      const CArray<double>& intrinsics, const CArray<std::int64_t>& ii,
+                      const CArray<std::int64_t>& jj, const CArray<float>& target,
+                      const CArray<float>& weight, const CArray<double>& tstamp,
+                      std::optional<CArray<double>> timestamps_s, std::optional<std::int64_t> id,
+                      std::optional<CArray<float>> disps_sens,
+                      std::optional<CArray<double>> stereo_rig, std::optional<std::int64_t> t0,
+                      const std::string& source) {
+  expectNdim(poses, 2, "poses", "(N,7)");
+  expectNdim(disps, 3, "disps", "(N,H,W)");
+  if (poses.shape(1) != 7)
+    throw InputError(source + ": key 'poses' has shape " + shapeOf(poses) + ", expected (N,7)");
+  Snapshot s;
+  s.source = source;
+  s.id = id;
+  s.H = static_cast<int>(disps.shape(1));
+  s.W = static_cast<int>(disps.shape(2));
+  s.poses_cw.resize(poses.shape(0), 7);
+  std::copy(poses.data(), poses.data() + poses.size(), s.poses_cw.data());
+  s.disps = toVector(disps);
+  if (intrinsics.size() != 4)
+    throw InputError(source + ": key 'intrinsics' has shape " + shapeOf(intrinsics) +
+                     ", expected (4,)");
+  s.intrinsics = Eigen::Map<const Eigen::Vector4d>(intrinsics.data());
+  s.ii = toVector(ii);
+  s.jj = toVector(jj);
+  s.target = toVector(target);
+  s.weight = toVector(weight);
+  s.tstamp = toVector(tstamp);
+  if (timestamps_s) s.timestamps_s = toVector(*timestamps_s);
+  if (disps_sens) s.disps_sens = toVector(*disps_sens);
+  if (stereo_rig) {
+    if (stereo_rig->size() != 7)
+      throw InputError(source + ": key 'stereo_rig' has shape " + shapeOf(*stereo_rig) +
+                       ", expected (7,)");
+    s.stereo_rig = Eigen::Map<const Eigen::Matrix<double, 7, 1>>(stereo_rig->data());
+  }
+  s.t0 = t0;
+  // The flat sizes are checked by validate(); the plane shapes here, with the key's name.
+  const auto E = static_cast<py::ssize_t>(s.ii.size());
+  for (const auto& [key, a] :
+       {std::pair<const char*, const CArray<float>*>{"target", &target}, {"weight", &weight}})
+    if (a->ndim() != 4 || a->shape(0) != E || a->shape(1) != 2 || a->shape(2) != s.H ||
+        a->shape(3) != s.W)
+      throw InputError(source + ": key '" + key + "' has shape " + shapeOf(*a) + ", expected (" +
+                       std::to_string(E) + ",2," + std::to_string(s.H) + "," + std::to_string(s.W) +
+                       ") (E,2,H,W)");
+  s.validate();
+  return s;
+}
+
+py::array_t<double> matrix(const Eigen::MatrixXd& m) {
+  py::array_t<double> out({m.rows(), m.cols()});
+  auto r = out.mutable_unchecked<2>();
+  for (Eigen::Index i = 0; i < m.rows(); ++i)
+    for (Eigen::Index j = 0; j < m.cols(); ++j) r(i, j) = m(i, j);
+  return out;
+}
+
+/// The engine and the options it was made with.
+struct PyCovariance {
+  std::shared_ptr<const Snapshot> snapshot;
+  std::unique_ptr<DbaCovariance> cov;
+  DbaOptions options;
+  bool depth_sigma = true;
+};
+
+/// The keywords into DbaOptions by the one builder that dba-covariance's flags use
+/// (DbaOptionOverrides::resolve): the same names, defaults and messages.
+DbaOptions engineOptions(const std::string& preset, std::optional<double> weight_scale,
+                         std::optional<std::string> gauge, std::optional<double> gauge_sigma_rot,
+                         std::optional<double> gauge_sigma_trans, std::optional<double> near,
+                         std::optional<double> far, std::optional<double> min_depth_ratio,
+                         std::optional<double> sensor_depth_weight) {
+  DbaOptionOverrides o;
+  o.preset = parseEnum<Preset>(preset);
+  o.weight_scale = weight_scale;
+  if (gauge) o.gauge = parseEnum<GaugeOptions::Type>(*gauge);
+  o.gauge_sigma_rot = gauge_sigma_rot;
+  o.gauge_sigma_trans = gauge_sigma_trans;
+  o.near = near;
+  o.far = far;
+  o.min_depth_ratio = min_depth_ratio;
+  o.sensor_depth_weight = sensor_depth_weight;
+  return o.resolve();
+}
+
+CovarianceOptions solverOptions(const std::string& solver, const std::string& ordering,
+                                bool depth_sigma) {
+  CovarianceOptions so;
+  so.kind = parseEnum<SolverKind>(solver);
+  so.ordering = parseEnum<Ordering>(ordering);
+  so.depth_variances = depth_sigma;
+  return so;
+}
+
+void checkKeyframe(const PyCovariance& c, int k) {
+  if (!c.cov->contains(k))
+    throw py::key_error("keyframe " + std::to_string(k) +
+                        " is not a graph keyframe of this snapshot (graph keyframes: " +
+                        joinKeyframes(c.cov->keyframes()) + ")");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_dbacov, m) {
+  m.doc() = "dbacov: pose covariances from DROID-SLAM's dense bundle adjustment (C++ core)";
+  static py::exception<InputError> input_error(m, "InputError", PyExc_ValueError);
+  static py::exception<NumericalError> numerical_error(m, "NumericalError", PyExc_ArithmeticError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const InputError& e) {
+      input_error(e.what());
+    } catch (const NumericalError& e) {
+      numerical_error(e.what());
+    }
+  });
+
+  py::class_<Snapshot, std::shared_ptr<Snapshot>>(m, "Snapshot")
+      .def(py::init(&makeSnapshot), py::kw_only(), py::arg("poses"), py::arg("disps"),
+           py::arg("intrinsics"), py::arg("ii"), py::arg("jj"), py::arg("target"),
+           py::arg("weight"), py::arg("tstamp"), py::arg("timestamps_s") = py::none(),
+           py::arg("id") = py::none(), py::arg("disps_sens") = py::none(),
+           py::arg("stereo_rig") = py::none(), py::arg("t0") = py::none(),
+           py::arg("source") = "<python>", py::call_guard<py::gil_scoped_release>())
+      .def_readonly("source", &Snapshot::source)
+      .def_readonly("id", &Snapshot::id)
+      .def_readonly("t0", &Snapshot::t0)
+      .def_readonly("H", &Snapshot::H)
+      .def_readonly("W", &Snapshot::W)
+      .def_property_readonly("num_keyframes", &Snapshot::numKeyframes)
+      .def_property_readonly("num_edges", &Snapshot::numEdges)
+      .def_property_readonly("graph_keyframes", &Snapshot::graphKeyframes)
+      .def_property_readonly("poses", [](const Snapshot& s) { return matrix(s.poses_cw); })
+      .def_property_readonly(
+          "tstamp", [](const Snapshot& s) { return py::array_t<double>(py::cast(s.tstamp)); })
+      .def_property_readonly("timestamps_s",
+                             [](const Snapshot& s) -> py::object {
+                               if (!s.timestamps_s) return py::none();
+                               return py::array_t<double>(py::cast(*s.timestamps_s));
+                             })
+      .def_property_readonly("is_stereo",
+                             [](const Snapshot& s) { return s.stereo_rig.has_value(); })
+      .def_property_readonly("is_rgbd", [](const Snapshot& s) { return s.disps_sens.has_value(); })
+      .def(
+          "save",
+          [](const Snapshot& s, const std::string& path, bool compressed) {
+            io::saveSnapshotNpz(path, s, compressed);
+          },
+          py::arg("path"), py::arg("compressed") = true, py::call_guard<py::gil_scoped_release>())
+      .def("__repr__", [](const Snapshot& s) {
+        return "<dbacov.Snapshot " + s.source + ": " + std::to_string(s.numKeyframes()) +
+               " keyframes, " + std::to_string(s.numEdges()) + " edges, " + std::to_string(s.H) +
+               "x" + std::to_string(s.W) + ">";
+      });
+
+  m.def(
+      "load",
+      [](const std::string& path) {
+        return std::make_shared<Snapshot>(io::loadSnapshotNpz(path, 0));
+      },
+      py::arg("path"), py::call_guard<py::gil_scoped_release>(),
+      "Reads one snapshot .npz (conventions §1); errors name the file and the key.");
+
+  // For the call-overhead benchmark (tests/benchmarks/bench_python.py): seconds per iteration of
+  // the same work as Covariance(snapshot) + marginals(), timed inside C++ (no Python involved).
+  m.def(
+      "_engine_seconds",
+      [](std::shared_ptr<Snapshot> snap, int iterations) {
+        const DbaOptions o = DbaOptions::droid();
+        CovarianceOptions so;
+        so.depth_variances = true;
+        const auto t0 = std::chrono::steady_clock::now();
+        double sink = 0;
+        for (int it = 0; it < iterations; ++it) {
+          const DbaCovariance cov(*snap, o, so);
+          for (int k : cov.keyframes()) sink += cov.marginal(k)(0, 0);
+        }
+        const auto t1 = std::chrono::steady_clock::now();
+        if (!(sink == sink)) throw std::logic_error("NaN");
+        return std::chrono::duration<double>(t1 - t0).count() / iterations;
+      },
+      py::arg("snapshot"), py::arg("iterations"), py::call_guard<py::gil_scoped_release>());
+
+  py::class_<PyCovariance>(m, "Covariance")
+      .def(py::init([](std::shared_ptr<Snapshot> snap, const std::string& preset,
+                       std::optional<double> weight_scale, std::optional<std::string> gauge,
+                       std::optional<double> gauge_sigma_rot,
+                       std::optional<double> gauge_sigma_trans, std::optional<double> near,
+                       std::optional<double> far, std::optional<double> min_depth_ratio,
+                       std::optional<double> sensor_depth_weight, const std::string& solver,
+                       const std::string& ordering, std::size_t threads, bool depth_sigma) {
+             auto c = std::make_unique<PyCovariance>();
+             c->options =
+                 engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans,
+                               near, far, min_depth_ratio, sensor_depth_weight);
+             const CovarianceOptions so = solverOptions(solver, ordering, depth_sigma);
+             c->snapshot = std::move(snap);
+             c->depth_sigma = depth_sigma;
+             py::gil_scoped_release release;
+             const ThreadLimit limit(threads);
+             c->cov = std::make_unique<DbaCovariance>(*c->snapshot, c->options, so);
+             return c;
+           }),
+           py::arg("snapshot"), py::kw_only(), py::arg("preset") = "droid",
+           py::arg("weight_scale") = py::none(), py::arg("gauge") = py::none(),
+           py::arg("gauge_sigma_rot") = py::none(), py::arg("gauge_sigma_trans") = py::none(),
+           py::arg("near") = py::none(), py::arg("far") = py::none(),
+           py::arg("min_depth_ratio") = py::none(), py::arg("sensor_depth_weight") = py::none(),
+           py::arg("solver") = "sparse", py::arg("ordering") = "auto", py::arg("threads") = 0,
+           py::arg("depth_sigma") = true)
+      .def_property_readonly("keyframes", [](const PyCovariance& c) { return c.cov->keyframes(); })
+      .def_property_readonly("gauge_keyframes",
+                             [](const PyCovariance& c) { return c.cov->gaugeKeyframes(); })
+      .def_property_readonly("snapshot", [](const PyCovariance& c) { return c.snapshot; })
+      .def("free_dof",
+           [](const PyCovariance& c, int k) {
+             checkKeyframe(c, k);
+             return c.cov->freeDof(k);
+           })
+      .def(
+          "marginal",
+          [](const PyCovariance& c, int k) {
+            checkKeyframe(c, k);
+            Eigen::MatrixXd M;
+            {
+              py::gil_scoped_release release;
+              M = c.cov->marginal(k);
+            }
+            return matrix(M);
+          },
+          py::arg("keyframe"),
+          "6×6 covariance of the keyframe's tangent [rho; phi] (conventions §3)")
+      .def(
+          "joint",
+          [](const PyCovariance& c, int a, int b) {
+            checkKeyframe(c, a);
+            checkKeyframe(c, b);
+            Eigen::MatrixXd M;
+            {
+              py::gil_scoped_release release;
+              M = c.cov->joint(a, b);
+            }
+            return matrix(M);
+          },
+          py::arg("a"), py::arg("b"), "12×12 joint covariance of (xi_a, xi_b)")
+      .def(
+          "relative",
+          [](const PyCovariance& c, int a, int b) {
+            checkKeyframe(c, a);
+            checkKeyframe(c, b);
+            Eigen::MatrixXd M;
+            {
+              py::gil_scoped_release release;
+              M = c.cov->relative(a, b);
+            }
+            return matrix(M);
+          },
+          py::arg("a"), py::arg("b"), "6×6 covariance of the tangent of T_wc_a^-1 T_wc_b")
+      .def("marginals",
+           [](const PyCovariance& c) {
+             const std::vector<int>& kf = c.cov->keyframes();
+             py::array_t<double> out(
+                 {static_cast<py::ssize_t>(kf.size()), py::ssize_t(6), py::ssize_t(6)});
+             double* o = out.mutable_data();
+             {
+               py::gil_scoped_release release;
+               for (std::size_t a = 0; a < kf.size(); ++a) {
+                 const Matrix6d M = c.cov->marginal(kf[a]);
+                 for (int i = 0; i < 6; ++i)
+                   for (int j = 0; j < 6; ++j) o[(a * 6 + i) * 6 + j] = M(i, j);
+               }
+             }
+             return out;
+           })
+      .def(
+          "inverse_depth_sigma",
+          [](const PyCovariance& c, int k) {
+            checkKeyframe(c, k);
+            if (!c.depth_sigma)
+              throw std::invalid_argument(
+                  "inverse_depth_sigma needs Covariance(..., depth_sigma=True)");
+            std::vector<float> v;
+            {
+              py::gil_scoped_release release;
+              v = c.cov->inverseDepthSigma(k);
+            }
+            py::array_t<float> out({c.snapshot->H, c.snapshot->W});
+            std::copy(v.begin(), v.end(), out.mutable_data());
+            return out;
+          },
+          py::arg("keyframe"),
+          "(H,W) standard deviation of each pixel's inverse depth; NaN without information")
+      .def_property_readonly("stats", [](const PyCovariance& c) {
+        const LinearizationStats& s = c.cov->stats();
+        py::dict d;
+        d["factors_used"] = s.factors_used;
+        d["factors_filtered"] = s.factors_filtered;
+        d["depths_used"] = s.depths_used;
+        d["depths_unobservable"] = s.depths_unobservable;
+        d["chi2"] = s.chi2;
+        return d;
+      });
+}
