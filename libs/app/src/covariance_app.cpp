@@ -14,6 +14,7 @@
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/parallel.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "path_checks.h"
 #include "visual_cli.h"
 
 namespace dbacov::app {
@@ -167,6 +168,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
     cli.parse(argc, argv);
     engine = opt.engineOptions();
     detail::finishVisualOptions(visual);
+    detail::checkCovariancePaths(opt, visual);  // no output onto an input or onto another output
     if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
         opt.rawlog_path.empty() && opt.graph_prefix.empty() && !visual.any())
       throw std::invalid_argument(
@@ -263,7 +265,12 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
     // After a --fail-fast stop nothing is committed: the sinks are destroyed uncommitted and no
     // output appears. Otherwise every output is committed, even when another one fails (under
     // --fail-fast the first failed output stops the others).
-    if (policy == FailurePolicy::KeepGoing || sum.failed() == 0) {
+    // A run that processed no snapshot commits nothing: the previous files stay untouched.
+    if (sum.processed == 0 && !opt.quiet)
+      err << "dba-covariance: no snapshot was processed: no output written, previous files "
+             "untouched\n";
+    if (sum.processed > 0 && (policy == FailurePolicy::KeepGoing || sum.failed() == 0)) {
+      io::CommitGroup group;  // the outputs change together (README "Reliability")
       for (std::size_t i = 0; i < sinks.size(); ++i) {
         if (broken[i]) {  // reported when it failed
           sum.outputNotWritten();
@@ -276,6 +283,12 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
           sum.outputNotWritten();
           if (policy == FailurePolicy::FailFast) break;
         }
+      }
+      try {
+        group.publish();
+      } catch (const std::exception& e) {
+        err << "dba-covariance: error: " << e.what() << '\n';
+        sum.outputNotWritten();
       }
       if (graph && graph->uninformativePairs() && !opt.quiet)
         err << "dba-covariance: note: " << graph->uninformativePairs()

@@ -11,6 +11,7 @@
 #include "dbacov/core/reprojection.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "path_checks.h"
 
 namespace dbacov::app {
 namespace {
@@ -69,6 +70,10 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
     cli.parse(argc, argv);
     if (info.empty() && (inputs.empty() || output.empty()))
       throw CLI::ValidationError("give -i INPUT... -o OUTPUT.rawlog, or --info FILE...");
+    io::OutputPlan plan;  // no output onto an input
+    detail::addInputs(plan, inputs, "-i", ".npz");
+    plan.output(output, "-o");
+    plan.check();
   } catch (...) {
     return detail::usageExitStatus(cli, "droid2rawlog", out, err);
   }

@@ -12,6 +12,7 @@
 #include "dbacov/app/scenario_options.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/monte_carlo.h"
+#include "path_checks.h"
 
 namespace dbacov::app {
 namespace {
@@ -227,6 +228,16 @@ int runEvaluateApp(int argc, const char* const* argv, std::ostream& out, std::os
       throw std::invalid_argument("give either --calibrate or --inflation");
     if (o.calibration_runs > 0 && o.inflation)
       throw std::invalid_argument("give either --calibration-runs or --inflation");
+    io::OutputPlan plan;  // no output onto an input or onto another output
+    plan.input(o.csv, "--csv");
+    plan.input(o.relative_csv, "--relative-csv");
+    plan.input(o.rawlog, "--rawlog");
+    plan.input(o.gt, "--gt");
+    plan.input(o.image_times, "--image-times");
+    plan.input(o.scenario.config_path, "--config");
+    plan.output(o.json, "--json");
+    plan.output(o.samples_csv, "--samples-csv");
+    plan.check();
     if (o.monte_carlo > 0) config = o.scenario.resolve();
   } catch (...) {
     return detail::usageExitStatus(cli, "dba-evaluate", out, err);

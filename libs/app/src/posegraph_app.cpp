@@ -16,6 +16,7 @@
 #include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/pose_graph_io.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "path_checks.h"
 
 namespace dbacov::app {
 namespace {
@@ -138,6 +139,14 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
     cli.parse(argc, argv);
     if (rawlog_path.empty() && tum_path.empty())
       throw CLI::ValidationError("no output requested: give -o OUT.rawlog and/or --tum OUT.tum");
+    io::OutputPlan plan;  // no output onto an input or onto another output
+    plan.input(graph_path, "-g");
+    plan.input(nodes_path, "--nodes");
+    plan.input(extra_path, "--extra");
+    plan.input(fs::path(graph_path).replace_extension(".nodes.csv").string(), "-g (its nodes)");
+    plan.output(rawlog_path, "-o");
+    plan.output(tum_path, "--tum");
+    plan.check();
   } catch (...) {
     return detail::usageExitStatus(cli, "dba-posegraph", out, err);
   }
