@@ -12,6 +12,7 @@
 #include "dbacov/app/run_summary.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/keyframe_times.h"
 #include "dbacov/core/parallel.h"
 #include "dbacov/mrpt/rawlog_io.h"
 #include "path_checks.h"
@@ -122,8 +123,11 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       ->check(CLI::IsMember({"latest", "all", "final"}));
   cli.add_option("--label", opt.label, "sensorLabel of the rawlog observations");
   cli.add_option("--fps", opt.fps,
-                 "Keyframe times = tstamp / fps for snapshots without 'timestamps_s'")
-      ->check(CLI::PositiveNumber);
+                 "Keyframe times = tstamp / fps for snapshots without 'timestamps_s' (finite, "
+                 "> 0)");
+  cli.add_option("--start-time", opt.start_time,
+                 "With --fps: time of tstamp 0, s since 1970 (default 0; -o and --graph need "
+                 "times > 0)");
   cli.add_option(
       "--graph", opt.graph_prefix,
       "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
@@ -168,6 +172,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
     cli.parse(argc, argv);
     engine = opt.engineOptions();
     detail::finishVisualOptions(visual);
+    if (opt.fps) checkFps(*opt.fps);
     detail::checkCovariancePaths(opt, visual);  // no output onto an input or onto another output
     if (opt.csv_path.empty() && opt.relative_csv_path.empty() && opt.depth_sigma_dir.empty() &&
         opt.rawlog_path.empty() && opt.graph_prefix.empty() && !visual.any())
@@ -224,7 +229,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
           [&](PipelineItem& item) {
             Snapshot& s = item.input.snapshot;
             try {
-              if (opt.fps) deriveKeyframeTimes(s, *opt.fps);
+              if (opt.fps) deriveKeyframeTimes(s, *opt.fps, opt.start_time);
               for (const auto& sink : sinks) sink->check(s);
               auto cov = std::make_unique<DbaCovariance>(s, engine, solver);
               for (const auto& sink : sinks) sink->verify(s, *cov);

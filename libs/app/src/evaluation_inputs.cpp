@@ -14,6 +14,7 @@
 #include "dbacov/core/errors.h"
 #include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "evaluation_input_checks.h"
 
 namespace dbacov::app {
 namespace {
@@ -98,6 +99,7 @@ class CsvTable {
       for (int c = r; c < 6; ++c)
         S(r, c) = S(c, r) = get("cov_" + std::to_string(r) + std::to_string(c));
     if (!S.allFinite()) throw InputError(where() + ": non-finite covariance");
+    detail::checkCovarianceValues(S, where());
     return S;
   }
 
@@ -156,10 +158,13 @@ GroundTruth GroundTruth::load(const std::string& path, GroundTruthFormat format)
       tq[6] = x[4];
     }
     rows.emplace_back(euroc ? x[0] * 1e-9 : x[0], pose(tq, where));
+    if (!std::isfinite(rows.back().first))
+      throw InputError(where + ": the timestamp is not a finite number");
   }
   if (rows.empty()) throw InputError(path + ": no poses");
   std::stable_sort(rows.begin(), rows.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });
+  detail::checkGroundTruthTimes(path, rows);
   for (auto& [t, T] : rows) {
     gt.t_.push_back(t);
     gt.T_.push_back(T);
@@ -279,6 +284,7 @@ std::vector<RawlogPoseRow> readPoseRawlog(const std::string& path, const std::st
     if (!r.Sigma.allFinite() || !r.T_wc.matrix().allFinite())
       throw InputError(path + ": entry " + std::to_string(entry) +
                        ": non-finite pose or covariance");
+    detail::checkCovarianceValues(r.Sigma, path + ": entry " + std::to_string(entry));
     rows.push_back(r);
   };
   for (auto obj = reader.next(); obj; obj = reader.next()) {

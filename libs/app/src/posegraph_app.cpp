@@ -16,6 +16,7 @@
 #include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/pose_graph_io.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "graph_input_checks.h"
 #include "path_checks.h"
 
 namespace dbacov::app {
@@ -29,14 +30,19 @@ PoseGraph loadGraph(const std::string& path) {
   const std::string ext = fs::path(path).extension().string();
   PoseGraph g;
   if (ext == ".graphbin")
-    g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(path));
+    g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(path), path);
   else if (ext == ".graph")
-    g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(path));
+    g = mrpt_bridge::fromNetwork(mrpt_bridge::readGraphMrptText(path), path);
   else
     throw std::invalid_argument(path +
                                 ": expected a .graphbin (exact) or .graph (MRPT text) file; "
                                 "MRPT's loader would misread the rotation information of a .g2o");
   if (g.nodes.empty()) throw InputError(path + ": the graph has no nodes");
+  if (g.nodes.size() < 2 || g.edges.empty())
+    throw InputError(path + ": the graph has " + std::to_string(g.nodes.size()) + " node(s) and " +
+                     std::to_string(g.edges.size()) +
+                     " edge(s): nothing to optimize; give a graph with at least two nodes joined "
+                     "by an edge (e.g. dba-covariance --graph over two or more keyframes)");
   for (const auto& [id, T] : g.nodes)
     if (!T.matrix().allFinite())
       throw InputError(path + ": node " + std::to_string(id) + " has a non-finite pose");
@@ -50,6 +56,7 @@ PoseGraph loadGraph(const std::string& path) {
     if (!e.Z.matrix().allFinite()) throw InputError(edge + " has a non-finite relative pose");
     Matrix6d unused;
     const Matrix6d I = e.information;
+    detail::checkSymmetricInformation(I, edge);
     if (!I.allFinite() || !informationOf(0.5 * (I + I.transpose()), &unused))
       throw InputError(edge + " has an information matrix that is not positive definite" +
                        (ext == ".graph" ? " (MRPT's text loader drops its rotation-rotation "
@@ -76,6 +83,10 @@ void loadNodeTimes(const std::string& path, PoseGraph& g) {
       const int node = std::stoi(id);
       g.node_tstamp[node] = std::stod(tstamp);
       if (!time.empty()) g.node_time[node] = std::stod(time);
+      detail::checkNodeTimeRow(path, n, node, g.node_tstamp[node],
+                               time.empty() ? std::nullopt : std::optional(g.node_time[node]));
+    } catch (const InputError&) {
+      throw;
     } catch (const std::exception&) {
       throw InputError(path + ":" + std::to_string(n) + ": expected 'node,tstamp,time_s', found '" +
                        line + "'");

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "dbacov/core/keyframe_times.h"
 #include "dbacov/sim/scenario_json.h"
 
 namespace dbacov::app {
@@ -123,7 +124,10 @@ sim::ScenarioConfig ScenarioOptions::resolve() const {
     c.gauge.sigma_rot = c.gauge.sigma_trans = 0;
   }
   if (seed) c.seed = *seed;
-  if (fps) c.time.fps = *fps;
+  if (fps) {
+    checkFps(*fps);
+    c.time.fps = *fps;
+  }
   if (start_time) c.time.start_time = *start_time;
   if (no_solve) c.solve = false;
   c.validate();

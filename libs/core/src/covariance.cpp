@@ -4,8 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 
+#include "dbacov/core/conditioning.h"
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/marginal_solver.h"
 
@@ -40,10 +42,39 @@ struct DbaCovariance::Impl {
   }
 };
 
+namespace {
+
+/// A free keyframe whose covariance is numerically singular is a numerical failure, never a
+/// keyframe that looks gauge-fixed (conditioning.h).
+void checkConditioning(const DbaCovariance& cov) {
+  std::vector<int> singular;
+  double worst = 0;
+  for (int k : cov.keyframes()) {
+    const double c = freeConditionNumber(cov.marginal(k), cov.freeDof(k));
+    if (!(c <= kMaxConditionNumber)) {
+      singular.push_back(k);
+      worst = std::max(worst, c);
+    }
+  }
+  if (singular.empty()) return;
+  std::ostringstream cond;
+  cond.precision(3);
+  cond << worst;
+  throw NumericalError("the covariances of keyframes " + joinKeyframes(singular) +
+                           " are numerically singular (condition number " + cond.str() +
+                           " > 1e14 over their free DoF): their poses are not determined in "
+                           "double precision; check the scale of the inverse depths 'disps' and "
+                           "of the focal lengths 'intrinsics'",
+                       singular);
+}
+
+}  // namespace
+
 DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
                              const SolverOptions& so)
     : impl_(std::make_unique<Impl>()) {
   options.validate();
+  snapshot.validate();  // the API boundary: InputError for an invalid snapshot (covariance.h)
   Impl& m = *impl_;
   m.ne = linearizeDba(snapshot, options, so.depth_variances);
   // Values that pass validation can still overflow double precision in the factor (e.g. a
@@ -103,6 +134,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
                              " overflow double precision (the information matrix is numerically "
                              "singular)",
                          overflow);
+  checkConditioning(*this);
 }
 
 DbaCovariance::~DbaCovariance() = default;

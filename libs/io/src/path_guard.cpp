@@ -99,7 +99,7 @@ void OutputPlan::check() const {
   for (const Entry& e : inputs_) in.push_back(identify(e.path));
   auto clashWithInput = [&](const Entry& o, const Identity& id) {
     for (std::size_t i = 0; i < inputs_.size(); ++i)
-      if (in[i].exists && !in[i].directory && same(id, in[i])) {
+      if (in[i].exists && !in[i].directory && !in[i].char_device && same(id, in[i])) {
         // An input listed from a directory is described as "-i DIR: FILE".
         const std::string input = inputs_[i].option.back() == ':'
                                       ? inputs_[i].option + " " + inputs_[i].path

@@ -16,6 +16,7 @@ struct CovarianceAppOptions {
   std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path, graph_prefix;
   std::string emit = "latest", label = "DBA_COVARIANCE";
   std::optional<double> fps;
+  double start_time = 0;  ///< --start-time: time of tstamp 0 with --fps
   std::string solver = "sparse", ordering = "auto";
   std::string preset = "droid";
   std::optional<double> weight_scale, gauge_sigma_rot, gauge_sigma_trans, near, far,

@@ -59,6 +59,8 @@ class NpzReader {
   NpyArray read(const std::string& key) const;
 
  private:
+  /// InputError when two members share a name (constructors call it).
+  void checkUniqueMembers() const;
   struct Impl;
   explicit NpzReader(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;

@@ -5,8 +5,9 @@
 // symlinks, so `a/../b`, a hard link or a symlink to an input are all recognised); a path that does
 // not exist yet by its resolved location (the real path of its nearest existing ancestor, following
 // a dangling symlink to where it would create the file, plus the remaining components). A
-// character device (e.g. /dev/null) may take several outputs: it is written in place, nothing is
-// replaced. Directories given as inputs contribute the files they hold with the given extension.
+// character device (e.g. /dev/null, a terminal) may take several outputs and be an input too: it
+// is written in place, nothing is replaced. Directories given as inputs contribute the files they
+// hold with the given extension.
 //
 // Errors: check() throws dbacov::InputError naming the option and path of both sides, e.g.
 //   "--csv v.npz is the input -i v.npz (the same file): writing it would destroy the input;
