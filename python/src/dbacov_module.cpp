@@ -20,8 +20,8 @@
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/errors.h"
 #include "dbacov/core/options.h"
-#include "dbacov/core/threads.h"
 #include "dbacov/core/snapshot.h"
+#include "dbacov/core/threads.h"
 #include "dbacov/io/snapshot_npz.h"
 
 namespace py = pybind11;

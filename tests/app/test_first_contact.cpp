@@ -50,7 +50,7 @@ TEST(FirstContact, HelpSaysInputsMayBeRawlogsAndWhichOutputsNeedTimes) {
   ASSERT_EQ(r.code, 0);
   EXPECT_TRUE(contains(r.out, "or a rawlog of snapshots (droid2rawlog)")) << r.out;
   EXPECT_TRUE(contains(r.out, "needs keyframe times: 'timestamps_s' in the snapshots, or --fps"));
-  EXPECT_TRUE(contains(r.out, "Camera frame rate: keyframe times = tstamp / fps"));
+  EXPECT_TRUE(contains(r.out, "Camera frame rate: keyframe times = start + tstamp / fps"));
 }
 
 TEST(FirstContact, MissingKeyframeTimesGiveTheFixOnTheFirstLine) {

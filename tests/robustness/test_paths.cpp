@@ -80,9 +80,10 @@ TEST(Paths, NoUsableInputStopsBeforeAnythingIsWritten) {
   testing::TempDir dir;
   fs::create_directory(dir.file("empty"));
   std::ofstream(dir.file("k.csv")) << "previous";
+  std::ofstream(dir.file("notes.csv")) << "not a snapshot";  // (k.csv itself: test_path_clashes)
   for (const auto& [input, error] : std::vector<std::pair<std::string, std::string>>{
            {dir.file("empty"), ": directory holds no .npz snapshot"},
-           {dir.file("k.csv"),
+           {dir.file("notes.csv"),
             ": not a snapshot input (expected a .npz file, a .rawlog of DBA "
             "snapshots, or a directory of .npz files)"}}) {
     const AppResult r = covariance({"-i", input, "--csv", dir.file("k.csv")});
@@ -96,7 +97,7 @@ TEST(Paths, NoUsableInputStopsBeforeAnythingIsWritten) {
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.out,
             "dba-covariance: error: " + dir.file("empty") + ": directory holds no .npz snapshot\n");
-  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"empty", "k.csv"}));
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"empty", "k.csv", "notes.csv"}));
 }
 
 TEST(Paths, UnreadableInputs) {

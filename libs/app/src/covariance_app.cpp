@@ -9,8 +9,10 @@
 #include "dbacov/app/progress.h"
 #include "dbacov/app/snapshot_inputs.h"
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/keyframe_times.h"
 #include "dbacov/core/threads.h"
 #include "engine_cli.h"
+#include "path_checks.h"
 #include "self_calibration_cli.h"
 #include "visual_cli.h"
 
@@ -81,9 +83,12 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
                         "(each once, from its last snapshot)");
   cli.add_option("--label", opt.label, "sensorLabel of the rawlog observations");
   cli.add_option("--fps", opt.fps,
-                 "Camera frame rate: keyframe times = tstamp / fps for snapshots without "
-                 "'timestamps_s' (older DROID dumps, the shared snapshot); -o needs times")
-      ->check(CLI::PositiveNumber);
+                 "Camera frame rate: keyframe times = start + tstamp / fps for snapshots without "
+                 "'timestamps_s' (older DROID dumps, the shared snapshot); finite, > 0; -o needs "
+                 "times");
+  cli.add_option("--start-time", opt.start_time,
+                 "With --fps: time of tstamp 0, s since 1970 (default 0; -o and --graph need "
+                 "times > 0)");
   cli.add_option(
       "--graph", opt.graph_prefix,
       "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
@@ -110,6 +115,8 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
     opt.plots_dir = visual.plots_dir;
     opt.policy = fail_fast ? FailurePolicy::FailFast : FailurePolicy::KeepGoing;
     detail::SelfCalibrationRun check(opt.self_calibration);  // bad method, --edge-csv alone
+    if (opt.fps) checkFps(*opt.fps);
+    detail::checkCovariancePaths(opt);  // no output onto an input or onto another output
     if (!opt.anyOutput())
       throw std::invalid_argument(
           "no output requested: give -o, --csv, --relative-csv, "
@@ -174,6 +181,14 @@ class Run {
   /// (under --fail-fast the first failed output stops the others).
   void commit(const GraphSink* graph) {
     if (opt_.policy == FailurePolicy::FailFast && sum_.failed() != 0) return;
+    // A run that processed no snapshot commits nothing: the previous files stay untouched.
+    if (sum_.processed == 0) {
+      if (!opt_.quiet)
+        err_ << "dba-covariance: no snapshot was processed: no output written, previous files "
+                "untouched\n";
+      return;
+    }
+    io::CommitGroup group;  // the outputs change together (README "Reliability")
     for (std::size_t i = 0; i < sinks_.size(); ++i) {
       if (broken_[i]) {  // reported when it failed
         sum_.outputNotWritten();
@@ -189,6 +204,12 @@ class Run {
     }
     try {
       selfcal_.commit();  // --edge-csv
+    } catch (const std::exception& e) {
+      err_ << "dba-covariance: error: " << e.what() << '\n';
+      sum_.outputNotWritten();
+    }
+    try {
+      group.publish();
     } catch (const std::exception& e) {
       err_ << "dba-covariance: error: " << e.what() << '\n';
       sum_.outputNotWritten();
@@ -224,7 +245,7 @@ class Run {
   void compute(PipelineItem& item, const DbaOptions& engine, const CovarianceOptions& covariance) {
     Snapshot& s = item.input.snapshot;
     try {
-      if (opt_.fps) deriveKeyframeTimes(s, *opt_.fps);
+      if (opt_.fps) deriveKeyframeTimes(s, *opt_.fps, opt_.start_time);
       for (const auto& sink : sinks_) sink->check(s);
       auto cov = selfcal_.active() ? selfcal_.covariance(s, engine, covariance)
                                    : std::make_unique<DbaCovariance>(s, engine, covariance);
@@ -297,6 +318,8 @@ int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
     opt.scene.validate();
     if (!opt.anyOutput()) throw std::invalid_argument("no output requested");
     detail::SelfCalibrationRun check(opt.self_calibration);
+    if (opt.fps) checkFps(*opt.fps);
+    detail::checkCovariancePaths(opt);
   } catch (const std::exception& e) {
     err << "dba-covariance: " << e.what() << '\n';
     return 2;

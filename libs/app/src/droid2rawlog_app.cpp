@@ -8,8 +8,10 @@
 #include "cli_common.h"
 #include "dbacov/app/run_summary.h"
 #include "dbacov/app/snapshot_inputs.h"
+#include "dbacov/core/keyframe_times.h"
 #include "dbacov/core/reprojection.h"
 #include "dbacov/mrpt/bridge.h"
+#include "path_checks.h"
 
 namespace dbacov::app {
 namespace {
@@ -56,10 +58,13 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
   auto* out_opt = cli.add_option("-o,--output", output, "Output rawlog");
   auto* info_opt =
       cli.add_option("--info", info, "Summarize snapshot files or rawlogs instead of converting");
+  double start_time = 0;
+  cli.add_option("--start-time", start_time,
+                 "With --fps: time of tstamp 0, s since 1970 (default 0; times must be > 0)");
   cli.add_option("--fps", fps,
-                 "Camera frame rate: keyframe times = tstamp / fps for snapshots without "
-                 "'timestamps_s' (needed then: the rawlog's timestamps are keyframe times)")
-      ->check(CLI::PositiveNumber);
+                 "Camera frame rate: keyframe times = start + tstamp / fps for snapshots without "
+                 "'timestamps_s' (needed then: the rawlog's timestamps are keyframe times; finite, "
+                 "> 0)");
   cli.add_option("--label", label, "sensorLabel of the snapshot observations");
   cli.add_flag("-q,--quiet", quiet, "No summary line");
   bool fail_fast = false;
@@ -70,6 +75,11 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
     cli.parse(argc, argv);
     if (info.empty() && (inputs.empty() || output.empty()))
       throw CLI::ValidationError("give -i INPUT... -o OUTPUT.rawlog, or --info FILE...");
+    if (fps) checkFps(*fps);
+    io::OutputPlan plan;  // no output onto an input
+    detail::addInputs(plan, inputs, "-i", ".npz");
+    plan.output(output, "-o");
+    plan.check();
   } catch (...) {
     return detail::usageExitStatus(cli, "droid2rawlog", out, err);
   }
@@ -104,7 +114,7 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
           ++sum.read;
           double time = 0;
           try {
-            if (fps) deriveKeyframeTimes(s, *fps);
+            if (fps) deriveKeyframeTimes(s, *fps, start_time);
             time = keyframeTime(s, newestKeyframe(s));
           } catch (const std::exception& e) {
             return report(classifyFailure(e, false), s.source,
@@ -117,7 +127,8 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
         },
         on_error);
     // After a --fail-fast stop the writer is destroyed uncommitted: the output does not appear.
-    if (!fail_fast || sum.failed() == 0) writer->commit();
+    // No snapshot converted: nothing is committed, a previous rawlog stays untouched.
+    if (sum.processed > 0 && (!fail_fast || sum.failed() == 0)) writer->commit();
   } catch (const std::exception& e) {
     err << "droid2rawlog: error: " << e.what() << '\n';
     return 1;
@@ -126,6 +137,8 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
     err << "droid2rawlog: " << sum.line();
     if (fail_fast && sum.failed())
       err << "; --fail-fast: stopped at the first failure, " << output << " not written";
+    else if (sum.processed == 0)
+      err << "; nothing converted: " << output << " not written (a previous file stays)";
     else
       err << "; " << sum.processed << " written to " << output;
     err << '\n';

@@ -12,6 +12,7 @@
 #include "dbacov/app/scenario_options.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/monte_carlo.h"
+#include "path_checks.h"
 #include "self_calibration_cli.h"
 
 namespace dbacov::app {
@@ -50,6 +51,16 @@ usage.)";
 
 /// Checks the combination of options; throws std::invalid_argument with the reason.
 void checkUsage(const EvaluateOptions& o) {
+  io::OutputPlan plan;  // no output onto an input or onto another output
+  plan.input(o.csv, "--csv");
+  plan.input(o.relative_csv, "--relative-csv");
+  plan.input(o.rawlog, "--rawlog");
+  plan.input(o.gt, "--gt");
+  plan.input(o.image_times, "--image-times");
+  plan.input(o.scenario.config_path, "--config");
+  plan.output(o.json, "--json");
+  plan.output(o.samples_csv, "--samples-csv");
+  plan.check();
   if (o.self_calibration.enabled) {
     if (o.monte_carlo == 0)
       throw std::invalid_argument(

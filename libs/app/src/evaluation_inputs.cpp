@@ -10,6 +10,7 @@
 
 #include "dbacov/core/errors.h"
 #include "dbacov/mrpt/bridge.h"
+#include "evaluation_input_checks.h"
 
 namespace dbacov::app {
 namespace {
@@ -94,6 +95,7 @@ class CsvTable {
       for (int c = r; c < 6; ++c)
         S(r, c) = S(c, r) = get("cov_" + std::to_string(r) + std::to_string(c));
     if (!S.allFinite()) throw InputError(where() + ": non-finite covariance");
+    detail::checkCovarianceValues(S, where());
     return S;
   }
 
@@ -152,10 +154,13 @@ GroundTruth GroundTruth::load(const std::string& path, GroundTruthFormat format)
       tq[6] = x[4];
     }
     rows.emplace_back(euroc ? x[0] * 1e-9 : x[0], pose(tq, where));
+    if (!std::isfinite(rows.back().first))
+      throw InputError(where + ": the timestamp is not a finite number");
   }
   if (rows.empty()) throw InputError(path + ": no poses");
   std::stable_sort(rows.begin(), rows.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });
+  detail::checkGroundTruthTimes(path, rows);
   for (auto& [t, T] : rows) {
     gt.t_.push_back(t);
     gt.T_.push_back(T);
@@ -258,6 +263,7 @@ std::vector<RawlogPoseRow> readPoseRawlog(const std::string& path, const std::st
     r.t = p.time;
     r.T_wc = p.T_wc;
     r.Sigma = p.Sigma;
+    detail::checkCovarianceValues(r.Sigma, path + ": entry " + std::to_string(p.entry));
     rows.push_back(r);
   }
   return rows;

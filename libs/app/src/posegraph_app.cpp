@@ -11,6 +11,8 @@
 #include "dbacov/app/extra_constraints.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/mrpt/bridge.h"
+#include "graph_input_checks.h"
+#include "path_checks.h"
 
 namespace dbacov::app {
 namespace {
@@ -33,6 +35,11 @@ PoseGraph loadGraph(const std::string& path) {
         "misread the rotation information of a .g2o: run dba-posegraph -g " +
         fs::path(path).replace_extension(".graphbin").string());
   if (g.nodes.empty()) throw InputError(path + ": the graph has no nodes");
+  if (g.nodes.size() < 2 || g.edges.empty())
+    throw InputError(path + ": the graph has " + std::to_string(g.nodes.size()) + " node(s) and " +
+                     std::to_string(g.edges.size()) +
+                     " edge(s): nothing to optimize; give a graph with at least two nodes joined "
+                     "by an edge (e.g. dba-covariance --graph over two or more keyframes)");
   for (const auto& [id, T] : g.nodes)
     if (!T.matrix().allFinite())
       throw InputError(path + ": node " + std::to_string(id) + " has a non-finite pose");
@@ -46,6 +53,7 @@ PoseGraph loadGraph(const std::string& path) {
     if (!e.Z.matrix().allFinite()) throw InputError(edge + " has a non-finite relative pose");
     Matrix6d unused;
     const Matrix6d I = e.information;
+    detail::checkSymmetricInformation(I, edge);
     if (!I.allFinite() || !informationOf(0.5 * (I + I.transpose()), &unused)) {
       if (ext == ".graph") {  // the usual cause on real data: say what to run instead
         const std::string bin = fs::path(path).replace_extension(".graphbin").string();
@@ -78,6 +86,10 @@ void loadNodeTimes(const std::string& path, PoseGraph& g) {
       const int node = std::stoi(id);
       g.node_tstamp[node] = std::stod(tstamp);
       if (!time.empty()) g.node_time[node] = std::stod(time);
+      detail::checkNodeTimeRow(path, n, node, g.node_tstamp[node],
+                               time.empty() ? std::nullopt : std::optional(g.node_time[node]));
+    } catch (const InputError&) {
+      throw;
     } catch (const std::exception&) {
       throw InputError(path + ":" + std::to_string(n) + ": expected 'node,tstamp,time_s', found '" +
                        line + "'");
@@ -143,6 +155,14 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
     cli.parse(argc, argv);
     if (rawlog_path.empty() && tum_path.empty())
       throw CLI::ValidationError("no output requested: give -o OUT.rawlog and/or --tum OUT.tum");
+    io::OutputPlan plan;  // no output onto an input or onto another output
+    plan.input(graph_path, "-g");
+    plan.input(nodes_path, "--nodes");
+    plan.input(extra_path, "--extra");
+    plan.input(fs::path(graph_path).replace_extension(".nodes.csv").string(), "-g (its nodes)");
+    plan.output(rawlog_path, "-o");
+    plan.output(tum_path, "--tum");
+    plan.check();
   } catch (...) {
     return detail::usageExitStatus(cli, "dba-posegraph", out, err);
   }

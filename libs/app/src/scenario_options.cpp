@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "dbacov/core/keyframe_times.h"
 #include "dbacov/sim/scenario_json.h"
 #include "dbacov/sim/scenario_schema.h"
 
@@ -84,6 +85,7 @@ sim::ScenarioConfig ScenarioOptions::resolve() const {
     c.trajectory.num_keyframes = *snapshots + c.window - 1;
   }
   if (no_solve) c.solve = false;
+  if (given.count("--fps")) checkFps(c.time.fps);
   c.validate();
   return c;
 }

@@ -15,6 +15,7 @@
 #include "dbacov/mrpt/bridge.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/scenario_json.h"
+#include "path_checks.h"
 
 namespace dbacov::app {
 namespace {
@@ -67,6 +68,12 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
   sim::ScenarioConfig config;
   try {
     cli.parse(argc, argv);
+    io::OutputPlan plan;  // no output onto the configuration or onto another output
+    plan.input(scenario.config_path, "--config");
+    plan.output(rawlog_path, "--rawlog");
+    plan.output(out_dir + "/groundtruth.tum", "-o (groundtruth.tum)");
+    plan.output(out_dir + "/scenario.json", "-o (scenario.json)");
+    plan.check();
     config = scenario.resolve();
     if (no_npz && rawlog_path.empty())
       throw std::invalid_argument("--no-npz leaves no snapshot output: add --rawlog");

@@ -10,7 +10,13 @@ namespace dbacov::app {
 namespace fs = std::filesystem;
 
 bool isRawlogPath(const std::string& path) {
-  return fs::path(path).extension() == ".rawlog";
+  if (fs::path(path).extension() == ".rawlog") return true;
+  // A stream without a name to go by (/dev/stdin, a pipe, a FIFO not named *.npz) can only be a
+  // rawlog: an .npz (zip) must be seekable.
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  return !ec && fs::path(path).extension() != ".npz" &&
+         (fs::is_fifo(st) || fs::is_character_file(st) || fs::is_socket(st));
 }
 
 SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {

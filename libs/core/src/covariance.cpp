@@ -5,8 +5,10 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 
+#include "dbacov/core/conditioning.h"
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/marginal_solver.h"
@@ -44,6 +46,34 @@ struct DbaCovariance::Impl {
   }
 };
 
+namespace {
+
+/// A free keyframe whose covariance is numerically singular is a numerical failure, never a
+/// keyframe that looks gauge-fixed (conditioning.h).
+void checkConditioning(const DbaCovariance& cov) {
+  std::vector<int> singular;
+  double worst = 0;
+  for (int k : cov.keyframes()) {
+    const double c = freeConditionNumber(cov.marginal(k), cov.freeDof(k));
+    if (!(c <= kMaxConditionNumber)) {
+      singular.push_back(k);
+      worst = std::max(worst, c);
+    }
+  }
+  if (singular.empty()) return;
+  std::ostringstream cond;
+  cond.precision(3);
+  cond << worst;
+  throw NumericalError("the covariances of keyframes " + joinKeyframes(singular) +
+                           " are numerically singular (condition number " + cond.str() +
+                           " > 1e14 over their free DoF): their poses are not determined in "
+                           "double precision; check the scale of the inverse depths 'disps' and "
+                           "of the focal lengths 'intrinsics'",
+                       singular);
+}
+
+}  // namespace
+
 DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
                              const CovarianceOptions& so)
     : impl_(std::make_unique<Impl>()) {
@@ -52,6 +82,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
     return std::chrono::duration<double>(b - a).count();
   };
   options.validate();
+  snapshot.validate();  // the API boundary: InputError for an invalid snapshot (covariance.h)
   Impl& m = *impl_;
   const auto t0 = Clock::now();
   m.ne = linearizeDba(snapshot, options, so.depth_variances);
@@ -136,6 +167,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
                              " overflow double precision (the information matrix is numerically "
                              "singular)",
                          overflow);
+  checkConditioning(*this);
 }
 
 DbaCovariance::~DbaCovariance() = default;

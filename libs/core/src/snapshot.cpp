@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "dbacov/core/keyframe_times.h"
 #include "dbacov/core/se3.h"
 
 namespace dbacov {
@@ -210,6 +211,7 @@ void Snapshot::validate() const {
       fail(*this, std::string("key '") + key + "' keyframe " + std::to_string(k) +
                       " has the non-finite value " + std::to_string((*times)[k]) +
                       ", expected a finite time");
+  checkDistinctTstamps(*this);
 }
 
 double keyframeTime(const Snapshot& s, int k) {
@@ -217,17 +219,21 @@ double keyframeTime(const Snapshot& s, int k) {
     throw InputError(
         "no keyframe times: add --fps F (keyframe time = tstamp / F, F = the camera's frame "
         "rate), or dump the image times as 'timestamps_s'");
-  return (*s.timestamps_s)[k];
+  const double t = (*s.timestamps_s)[k];
+  checkRepresentableTime(t, "keyframe " + std::to_string(k) + " (tstamp " +
+                                std::to_string(static_cast<long long>(s.tstamp[k])) + ")");
+  return t;
 }
 
 int newestKeyframe(const Snapshot& s) {
   return s.graphKeyframes().back();
 }
 
-void deriveKeyframeTimes(Snapshot& s, double fps) {
+void deriveKeyframeTimes(Snapshot& s, double fps, double start_time) {
   if (s.timestamps_s) return;
+  checkFps(fps);
   std::vector<double> t(s.tstamp.size());
-  for (std::size_t k = 0; k < t.size(); ++k) t[k] = s.tstamp[k] / fps;
+  for (std::size_t k = 0; k < t.size(); ++k) t[k] = start_time + s.tstamp[k] / fps;
   s.timestamps_s = std::move(t);
 }
 

@@ -1,13 +1,18 @@
 // AtomicOutputFile: O_TMPFILE (or mkstemp) + fsync + linkat/rename. See atomic_file.h.
 #include "dbacov/io/atomic_file.h"
 
+#include "dbacov/io/path_guard.h"
+
 #include <fcntl.h>
+#include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 #include <stdexcept>
@@ -74,18 +79,103 @@ class AtomicStreamBuf : public std::streambuf {
   std::string error_;
 };
 
+/// Names the unnamed temporary `fd` in directory `dir` (linkat cannot replace a file, so a unique
+/// hidden name next to `target`); returns that name. Throws InputError naming `final_path`.
+std::string linkUnnamed(int fd, const std::string& final_path, const std::string& dir,
+                        const std::string& target) {
+  const std::string prefix = tempPrefix(dir, target.substr(target.rfind('/') + 1));
+  for (int attempt = 0;; ++attempt) {
+    const std::string candidate = prefix + randomSuffix();
+    if (::linkat(AT_FDCWD, procFdPath(fd).c_str(), AT_FDCWD, candidate.c_str(),
+                 AT_SYMLINK_FOLLOW) == 0)
+      return candidate;
+    if (errno != EEXIST || attempt == 100) {
+      const int error = errno;
+      throw InputError(final_path + ": cannot link the temporary file into directory '" + dir +
+                       "': " + std::strerror(error));
+    }
+  }
+}
+
+/// Copies the scratch file `fd` (from its start) into the existing special file `target`, opened
+/// for writing in place (no truncation, no replacement). Throws InputError naming `final_path`.
+void writeInPlace(int fd, const std::string& final_path, const std::string& target) {
+  const int out = ::open(target.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+  if (out < 0) {
+    const int error = errno;
+    throw InputError(final_path + ": cannot open for writing in place: " + std::strerror(error));
+  }
+  std::vector<char> buf(1 << 16);
+  off_t at = 0;
+  for (;;) {
+    const ssize_t n = ::pread(fd, buf.data(), buf.size(), at);
+    if (n < 0 && errno == EINTR) continue;
+    if (n == 0) break;
+    for (ssize_t done = 0; n > 0 && done < n;) {
+      const ssize_t w = ::write(out, buf.data() + done, static_cast<std::size_t>(n - done));
+      if (w < 0 && errno == EINTR) continue;
+      if (w <= 0) {
+        const int error = w < 0 ? errno : EIO;
+        ::close(out);
+        throw InputError(final_path + ": write failed: " + std::strerror(error));
+      }
+      done += w;
+    }
+    if (n < 0) {
+      const int error = errno;
+      ::close(out);
+      throw InputError(final_path +
+                       ": cannot read the spooled output back: " + std::strerror(error));
+    }
+    at += n;
+  }
+  if (::close(out) != 0 && errno != EINTR) {
+    const int error = errno;
+    throw InputError(final_path + ": close failed: " + std::strerror(error));
+  }
+}
+
+void fsyncDirectory(const std::string& dir) {
+  // Best effort: some file systems refuse fsync on directories.
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+}
+
+thread_local CommitGroup* g_active_group = nullptr;
+
 }  // namespace
 
 AtomicOutputFile::AtomicOutputFile(std::string final_path, TempKind kind)
     : final_path_(std::move(final_path)) {
-  const std::size_t slash = final_path_.rfind('/');
-  const std::string name = slash == std::string::npos ? final_path_ : final_path_.substr(slash + 1);
-  dir_ = slash == std::string::npos ? "." : slash == 0 ? "/" : final_path_.substr(0, slash);
+  const std::size_t slash0 = final_path_.rfind('/');
+  const std::string name0 =
+      slash0 == std::string::npos ? final_path_ : final_path_.substr(slash0 + 1);
+  if (name0.empty() || name0 == "." || name0 == "..")
+    throw InputError(final_path_ + ": not a file path (it names a directory)");
+  target_ = resolveOutputTarget(final_path_);
+  const std::size_t slash = target_.rfind('/');
+  const std::string name = slash == std::string::npos ? target_ : target_.substr(slash + 1);
+  dir_ = slash == std::string::npos ? "." : slash == 0 ? "/" : target_.substr(0, slash);
   if (name.empty() || name == "." || name == "..")
     throw InputError(final_path_ + ": not a file path (it names a directory)");
   struct stat st {};
-  if (::stat(final_path_.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+  if (::stat(target_.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
     throw InputError(final_path_ + ": is a directory, expected a file path");
+  if (::stat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    // A device, FIFO or socket: spool now, write in place at commit().
+    const char* tmp = std::getenv("TMPDIR");
+    const std::string scratch_dir = tmp && *tmp ? tmp : "/tmp";
+    fd_ = openScratchFile(scratch_dir);
+    if (fd_ < 0)
+      fail("cannot create a scratch file in '" + scratch_dir +
+               "' to spool the output (it is written in place, not a regular file)",
+           errno);
+    in_place_ = true;
+    return;
+  }
 
 #ifdef O_TMPFILE
   if (kind == TempKind::kAuto) {
@@ -115,7 +205,7 @@ AtomicOutputFile::~AtomicOutputFile() {
 
 std::string AtomicOutputFile::writePath() const {
   if (fd_ < 0) throw std::logic_error("AtomicOutputFile::writePath: " + final_path_ + " is closed");
-  return unnamed_ ? procFdPath(fd_) : temp_name_;
+  return unnamed_ || in_place_ ? procFdPath(fd_) : temp_name_;
 }
 
 void AtomicOutputFile::write(const void* data, std::size_t size) {
@@ -135,25 +225,37 @@ void AtomicOutputFile::write(const void* data, std::size_t size) {
 void AtomicOutputFile::commit() {
   if (committed_ || fd_ < 0)
     throw std::logic_error("AtomicOutputFile::commit: " + final_path_ + " is closed");
+  CommitGroup* group = CommitGroup::active();
   try {
-    if (::fsync(fd_) != 0) fail("fsync failed", errno);
-    if (unnamed_) {
-      // Give the inode a name in the same directory, then rename it over the final path (linkat
-      // cannot replace an existing file).
-      const std::string prefix = tempPrefix(dir_, final_path_.substr(final_path_.rfind('/') + 1));
-      for (int attempt = 0; temp_name_.empty(); ++attempt) {
-        const std::string candidate = prefix + randomSuffix();
-        if (::linkat(AT_FDCWD, procFdPath(fd_).c_str(), AT_FDCWD, candidate.c_str(),
-                     AT_SYMLINK_FOLLOW) == 0)
-          temp_name_ = candidate;
-        else if (errno != EEXIST || attempt == 100)
-          fail("cannot link the temporary file into directory '" + dir_ + "'", errno);
+    if (in_place_) {
+      if (group) {
+        group->adopt({final_path_, target_, dir_, "", fd_, true});
+      } else {
+        writeInPlace(fd_, final_path_, target_);
+        ::close(fd_);
       }
+      fd_ = -1;
+      committed_ = true;
+      return;
     }
+    if (::fsync(fd_) != 0) fail("fsync failed", errno);
+    if (group && unnamed_ && group->open_fds_ < group->fd_budget_) {
+      group->adopt({final_path_, target_, dir_, "", fd_, false});  // named at publish()
+      fd_ = -1;
+      committed_ = true;
+      return;
+    }
+    if (unnamed_) temp_name_ = linkUnnamed(fd_, final_path_, dir_, target_);
     const int fd = fd_;
     fd_ = -1;
     if (::close(fd) != 0) fail("close failed", errno);
-    if (::rename(temp_name_.c_str(), final_path_.c_str()) != 0)
+    if (group) {
+      group->adopt({final_path_, target_, dir_, temp_name_, -1, false});
+      temp_name_.clear();
+      committed_ = true;
+      return;
+    }
+    if (::rename(temp_name_.c_str(), target_.c_str()) != 0)
       fail("cannot rename the temporary file '" + temp_name_ + "' to the final path", errno);
   } catch (...) {
     discard();
@@ -161,12 +263,96 @@ void AtomicOutputFile::commit() {
   }
   temp_name_.clear();
   committed_ = true;
-  // Make the rename itself durable (best effort: some file systems refuse fsync on directories).
-  const int dfd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    ::fsync(dfd);
-    ::close(dfd);
+  fsyncDirectory(dir_);  // makes the rename itself durable
+}
+
+CommitGroup::CommitGroup() {
+  if (g_active_group) throw std::logic_error("CommitGroup: a group is already active");
+  g_active_group = this;
+  // Unnamed temporaries stay open until publish(): allow up to half the descriptors (raising the
+  // soft limit to the hard one); beyond that they are named when prepared.
+  struct rlimit lim {};
+  if (::getrlimit(RLIMIT_NOFILE, &lim) == 0) {
+    if (lim.rlim_cur < lim.rlim_max) {
+      struct rlimit raised = lim;
+      raised.rlim_cur = std::min<rlim_t>(lim.rlim_max, 1 << 16);
+      if (raised.rlim_cur > lim.rlim_cur && ::setrlimit(RLIMIT_NOFILE, &raised) == 0) lim = raised;
+    }
+    fd_budget_ = lim.rlim_cur / 2 > 64 ? static_cast<std::size_t>(lim.rlim_cur / 2 - 64) : 0;
   }
+}
+
+CommitGroup::~CommitGroup() {
+  discard();
+  if (g_active_group == this) g_active_group = nullptr;
+}
+
+CommitGroup* CommitGroup::active() {
+  return g_active_group;
+}
+
+void CommitGroup::adopt(Entry entry) {
+  if (entry.fd >= 0) ++open_fds_;
+  entries_.push_back(std::move(entry));
+}
+
+void CommitGroup::discard() noexcept {
+  for (Entry& e : entries_) {
+    if (e.fd >= 0) ::close(e.fd);
+    if (!e.temp_name.empty()) ::unlink(e.temp_name.c_str());
+  }
+  entries_.clear();
+  open_fds_ = 0;
+}
+
+void CommitGroup::publish() {
+  if (done_) throw std::logic_error("CommitGroup::publish: already published");
+  done_ = true;
+  if (g_active_group == this) g_active_group = nullptr;
+  // Fault injection for the kill tests (tests/robustness/test_kill.cpp): SIGKILL after that many
+  // renames.
+  const char* kill_env = std::getenv("DBACOV_TEST_KILL_IN_COMMIT");
+  const long kill_at = kill_env && *kill_env ? std::strtol(kill_env, nullptr, 10) : -1;
+  std::string first_error;
+  std::size_t failures = 0;
+  std::vector<std::string> dirs;
+  long renamed = 0;
+  for (Entry& e : entries_) {  // the window: names only, no data written
+    if (e.in_place) continue;
+    if (renamed == kill_at) ::raise(SIGKILL);
+    try {
+      if (e.fd >= 0) {
+        e.temp_name = linkUnnamed(e.fd, e.final_path, e.dir, e.target);
+        ::close(e.fd);
+        e.fd = -1;
+      }
+      if (::rename(e.temp_name.c_str(), e.target.c_str()) != 0) {
+        const int error = errno;
+        throw InputError(e.final_path + ": cannot rename the temporary file '" + e.temp_name +
+                         "' to the final path: " + std::strerror(error));
+      }
+      e.temp_name.clear();
+      ++renamed;
+      if (std::find(dirs.begin(), dirs.end(), e.dir) == dirs.end()) dirs.push_back(e.dir);
+    } catch (const InputError& err) {
+      if (failures++ == 0) first_error = err.what();
+    }
+  }
+  if (renamed == kill_at) ::raise(SIGKILL);
+  for (Entry& e : entries_) {
+    if (!e.in_place) continue;
+    try {
+      writeInPlace(e.fd, e.final_path, e.target);
+    } catch (const InputError& err) {
+      if (failures++ == 0) first_error = err.what();
+    }
+  }
+  for (const std::string& dir : dirs) fsyncDirectory(dir);
+  discard();
+  if (failures)
+    throw InputError(first_error + (failures > 1 ? " (and " + std::to_string(failures - 1) +
+                                                       " more files not written)"
+                                                 : std::string()));
 }
 
 void AtomicOutputFile::fail(const std::string& what, int err) const {

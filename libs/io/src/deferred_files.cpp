@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 
 #include "dbacov/io/atomic_file.h"
@@ -46,6 +47,10 @@ void DeferredFiles::add(const std::string& path, const void* data, std::size_t s
 void DeferredFiles::commit() {
   if (committed_) throw std::logic_error("DeferredFiles::commit: already committed");
   committed_ = true;
+  // Every file is prepared first (data written and fsync'ed), then all are renamed together
+  // (CommitGroup): a kill in the commit leaves the previous files, except inside the rename loop.
+  std::optional<CommitGroup> local;
+  if (!CommitGroup::active()) local.emplace();
   std::vector<char> buffer;
   std::string first_error;
   std::size_t failures = 0;
@@ -68,6 +73,13 @@ void DeferredFiles::commit() {
       out.write(buffer.data(), buffer.size());
       out.commit();
     } catch (const InputError& e) {  // the other files are still written
+      if (failures++ == 0) first_error = e.what();
+    }
+  }
+  if (local) {
+    try {
+      local->publish();
+    } catch (const InputError& e) {
       if (failures++ == 0) first_error = e.what();
     }
   }

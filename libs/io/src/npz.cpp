@@ -8,6 +8,7 @@
 #include <exception>
 #include <filesystem>
 #include <optional>
+#include <set>
 #include <stdexcept>
 
 #include "dbacov/core/parallel.h"
@@ -64,7 +65,22 @@ struct NpzReader::Impl {
   ZipPtr zip;
 };
 
-NpzReader::NpzReader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+NpzReader::NpzReader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {
+  checkUniqueMembers();
+}
+
+void NpzReader::checkUniqueMembers() const {
+  // Two members of one name: libzip finds the first, NumPy the last. Refuse rather than guess.
+  std::set<std::string> seen;
+  const zip_int64_t n = zip_get_num_entries(impl_->zip.get(), 0);
+  for (zip_int64_t i = 0; i < n; ++i) {
+    const char* name = zip_get_name(impl_->zip.get(), static_cast<zip_uint64_t>(i), 0);
+    if (name && !seen.insert(name).second)
+      throw InputError(impl_->path + ": the archive holds two members named '" + name +
+                       "' (NumPy would read the last, others the first): rewrite the file with "
+                       "each key once");
+  }
+}
 
 NpzReader NpzReader::fromMemory(const std::string& name, std::vector<unsigned char> bytes,
                                 std::uint64_t max_entry_bytes) {
@@ -100,6 +116,7 @@ NpzReader::NpzReader(const std::string& path, std::uint64_t max_entry_bytes)
   impl_->zip.reset(zip_open(path.c_str(), ZIP_RDONLY, &code));
   if (!impl_->zip)
     throw InputError(path + ": cannot open as a .npz (zip) archive: " + zipErrorString(code));
+  checkUniqueMembers();
 }
 
 NpzReader::~NpzReader() = default;

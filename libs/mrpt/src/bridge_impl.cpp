@@ -144,7 +144,7 @@ class BridgeImpl final : public Bridge {
   }
 
   PoseGraph readGraph(const std::string& path, bool mrpt_text) const override {
-    return fromNetwork(mrpt_text ? readGraphMrptText(path) : readGraphBinary(path));
+    return fromNetwork(mrpt_text ? readGraphMrptText(path) : readGraphBinary(path), path);
   }
 
   LevmarqResult optimizeLevmarq(PoseGraph& g, int root, std::size_t max_iterations) const override {

@@ -70,10 +70,16 @@ mrpt::graphs::CNetworkOfPoses3DInf toNetwork(const PoseGraph& g) {
   return net;
 }
 
-PoseGraph fromNetwork(const mrpt::graphs::CNetworkOfPoses3DInf& net) {
+PoseGraph fromNetwork(const mrpt::graphs::CNetworkOfPoses3DInf& net, const std::string& source) {
   PoseGraph g;
-  for (const auto& [id, p] : net.nodes) g.nodes[static_cast<int>(id)] = fromCPose3D(p);
+  for (const auto& [id, p] : net.nodes) {
+    checkNodeId(id, source);
+    g.nodes[static_cast<int>(id)] = fromCPose3D(p);
+  }
   for (const auto& [ids, edge] : net.edges) {
+    for (const auto id : {ids.first, ids.second})
+      checkNodeId(
+          id, source + ": edge " + std::to_string(ids.first) + " -> " + std::to_string(ids.second));
     PoseGraphEdge e;
     e.from = static_cast<int>(ids.first);
     e.to = static_cast<int>(ids.second);
@@ -127,6 +133,7 @@ void writeGraphText(const std::string& path, const PoseGraph& g, GraphTextLayout
 }
 
 mrpt::graphs::CNetworkOfPoses3DInf readGraphMrptText(const std::string& path) {
+  checkGraphText(path);  // what MRPT's loader would misread silently
   mrpt::graphs::CNetworkOfPoses3DInf net;
   try {
     net.loadFromTextFile(path);

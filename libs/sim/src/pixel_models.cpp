@@ -1,5 +1,6 @@
 #include "dbacov/sim/pixel_models.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -83,6 +84,11 @@ UnitNoiseField::UnitNoiseField(const NoiseModel& model, int H, int W)
     : model_(model), H_(H), W_(W) {
   model_.validate();
   if (model_.type == NoiseModel::Type::White) return;
+  if (!(model_.correlation_length_px <= std::max(H, W)))  // the kernel would outgrow the grid
+    throw std::invalid_argument(
+        "noise: correlation length of " +
+        std::to_string(static_cast<long long>(model_.correlation_length_px)) +
+        " px exceeds the grid (" + std::to_string(W) + "x" + std::to_string(H) + " px)");
   // Kernel k(u) = exp(−u²/(2 s²)), s = ℓ/√2, truncated at 4 s. The 2-D field f = Σ k(u)k(v) n is
   // unit variance when Σ_u k(u)² = 1 per dimension.
   const double s = model_.correlation_length_px / std::sqrt(2.0);

@@ -1,6 +1,8 @@
 #include "dbacov/sim/scenario.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -13,6 +15,12 @@ std::uint64_t splitmix(std::uint64_t z) {
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
   z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
   return z ^ (z >> 31);
+}
+
+std::string shortNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
 }
 
 void require(bool ok, const std::string& what) {
@@ -70,6 +78,14 @@ void ScenarioConfig::validate() const {
           "max overlap edges must be >= 0 and candidate distance > 0");
   weights.validate();
   noise.validate();
+  // A correlation longer than the grid makes each image's noise one offset, and its kernel (8ℓ/√2
+  // wide) would need memory and time beyond the grid's: bound it by the grid (issue 16).
+  require(noise.type != NoiseModel::Type::Correlated ||
+              noise.correlation_length_px <= std::max(camera.H, camera.W),
+          "noise: correlation length " + shortNumber(noise.correlation_length_px) +
+              " px (--correlation-length, noise.correlation_length_px) exceeds the grid (" +
+              std::to_string(camera.W) + "x" + std::to_string(camera.H) +
+              " px): expected at most " + std::to_string(std::max(camera.H, camera.W)) + " px");
   require(finitePositive(weight_scale), "weight scale must be > 0");
   if (mode == SimulationMode::SlidingWindow)
     require(window >= 2 && window <= trajectory.num_keyframes,

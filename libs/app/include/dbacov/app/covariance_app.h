@@ -24,7 +24,8 @@ struct CovarianceAppOptions {
   std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path, graph_prefix;
   EmitMode emit = EmitMode::Latest;
   std::string label = "DBA_COVARIANCE";
-  std::optional<double> fps;     ///< keyframe times = tstamp / fps without 'timestamps_s'
+  std::optional<double> fps;     ///< keyframe times = start + tstamp / fps without 'timestamps_s'
+  double start_time = 0;         ///< --start-time: time of tstamp 0 with --fps
   DbaOptionOverrides engine;     ///< --preset, --weight-scale, --gauge, ... (core/options.h)
   CovarianceOptions covariance;  ///< --solver, --ordering; depth variances set by the outputs
   SceneOutputOptions scene;      ///< --scene, --snapshot, ...

@@ -79,6 +79,7 @@ class SnapshotStream {
   std::size_t rawlog_snapshots_ = 0;  ///< snapshots read from the current rawlog
 };
 
+/// A `.rawlog` path, or a stream that is not named `*.npz` (/dev/stdin, a pipe, a FIFO).
 bool isRawlogPath(const std::string& path);
 
 }  // namespace dbacov::app

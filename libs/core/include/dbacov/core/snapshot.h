@@ -92,18 +92,21 @@ struct Snapshot {
   /// the key and what was expected: inconsistent shapes, ii/jj out of range or equal (ii == jj
   /// only with stereo_rig), non-finite poses or zero-norm quaternions, non-finite
   /// intrinsics/disps/targets/weights/time stamps, negative weights, weights that are zero
-  /// everywhere (no information at all), non-positive focal lengths.
+  /// everywhere (no information at all), non-positive focal lengths, two keyframes with the same
+  /// tstamp (keyframe_times.h).
   void validate() const;
 };
 
 /// Seconds of keyframe k: timestamps_s[k]. Throws InputError when the snapshot has no keyframe
-/// times (callers add the snapshot's name).
+/// times (callers add the snapshot's name), or a time MRPT cannot represent (<= 0, > 1e10 s;
+/// checkRepresentableTime in keyframe_times.h, naming the snapshot and keyframe).
 double keyframeTime(const Snapshot& s, int k);
 
 /// The newest graph keyframe (highest index; DROID appends keyframes in time order).
 int newestKeyframe(const Snapshot& s);
 
-/// Fills timestamps_s = tstamp / fps when absent (DROID's tstamp is the image index).
-void deriveKeyframeTimes(Snapshot& s, double fps);
+/// Fills timestamps_s = start_time + tstamp / fps when absent (DROID's tstamp is the image
+/// index). std::invalid_argument unless fps is finite and positive (checkFps, keyframe_times.h).
+void deriveKeyframeTimes(Snapshot& s, double fps, double start_time = 0);
 
 }  // namespace dbacov

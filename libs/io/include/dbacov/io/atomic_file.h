@@ -13,6 +13,15 @@
 //   - Destroying the object without a successful commit() discards the output; `final_path` is
 //     never touched. Only a SIGKILL between linkat and rename in commit() (microseconds) can leave
 //     a named temporary behind.
+//   - Symlinks are followed: `final_path` a symlink (even a dangling one) → the temporary is made
+//     next to its target and the target is replaced; the link stays.
+//   - A `final_path` that exists and is not a regular file (character device such as /dev/null or
+//     a terminal, FIFO, socket) is written in place, at commit() only: the data are spooled in an
+//     anonymous scratch file in $TMPDIR (or /tmp) until then, so a run that fails or is killed
+//     before commit() writes nothing to it. Such a write is not atomic (a FIFO's reader sees it
+//     as it comes).
+//   - While a CommitGroup is active on the calling thread, commit() only prepares the file
+//     (fsync) and hands it to the group, which publishes every file of the run together.
 // Errors (`final_path` is a directory, directory missing or not writable, disk full, rename
 // failure) throw dbacov::InputError
 // naming `final_path` and the system error. Misuse (write or commit after commit) throws
@@ -22,6 +31,7 @@
 #include <functional>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "dbacov/core/errors.h"
 
@@ -53,6 +63,10 @@ class AtomicOutputFile {
   /// True when the temporary is an O_TMPFILE inode (nothing to clean up after a crash).
   bool isUnnamed() const { return unnamed_; }
   bool committed() const { return committed_; }
+  /// The file that commit() replaces or writes: finalPath() with its symlinks resolved.
+  const std::string& targetPath() const { return target_; }
+  /// True when the target is a device, FIFO or socket, written in place by commit().
+  bool inPlace() const { return in_place_; }
 
   /// Appends `size` bytes through fd() (retrying partial writes). Throws InputError on failure.
   void write(const void* data, std::size_t size);
@@ -66,11 +80,57 @@ class AtomicOutputFile {
   void discard() noexcept;
 
   std::string final_path_;
-  std::string dir_;        ///< directory of final_path_ ("." if it has none)
+  std::string target_;     ///< final_path_ with symlinks resolved
+  std::string dir_;        ///< directory of target_ ("." if it has none)
   std::string temp_name_;  ///< named temporary (fallback), empty for O_TMPFILE
   int fd_ = -1;
   bool unnamed_ = false;
+  bool in_place_ = false;
   bool committed_ = false;
+};
+
+/// Makes the outputs of a run change together. While a CommitGroup is alive, every
+/// AtomicOutputFile::commit() on this thread (also through writeFileAtomically, DeferredFiles and
+/// the writers built on them) prepares its file — data fsync'ed, the unnamed temporary still
+/// open — and leaves every final path untouched. publish() then replaces all of them in one tight
+/// loop (linkat + rename per file, no data written), writes the in-place targets (devices, FIFOs),
+/// and fsyncs each directory once. Destroying the group without publish() discards every
+/// prepared file: the previous files stay as they were.
+///
+/// What a kill can leave (docs: README "Reliability"): before publish() — only the previous
+/// files, nothing else (unnamed temporaries vanish with the process); inside the rename loop
+/// (microseconds per file) — the files renamed so far are new, the others previous, and at most
+/// one hidden temporary `.<name>.tmp.<pid>.XXXXXX` (between its linkat and rename); a power cut
+/// before the directory fsyncs may undo renames (each file stays whole, old or new).
+/// Groups do not nest (a second one on the same thread throws std::logic_error). Not thread-safe.
+class CommitGroup {
+ public:
+  CommitGroup();
+  ~CommitGroup();
+  CommitGroup(const CommitGroup&) = delete;
+  CommitGroup& operator=(const CommitGroup&) = delete;
+
+  /// The group active on this thread, or nullptr.
+  static CommitGroup* active();
+  /// Number of prepared files waiting for publish().
+  std::size_t size() const { return entries_.size(); }
+  /// Publishes every prepared file (see above) and ends the group. A file that cannot be
+  /// published does not stop the others; then InputError with the first failure (and how many
+  /// more failed).
+  void publish();
+
+ private:
+  friend class AtomicOutputFile;
+  struct Entry {
+    std::string final_path, target, dir, temp_name;
+    int fd = -1;  ///< unnamed temporary or in-place scratch, still open
+    bool in_place = false;
+  };
+  void adopt(Entry entry);
+  void discard() noexcept;
+  std::vector<Entry> entries_;
+  std::size_t open_fds_ = 0, fd_budget_ = 0;
+  bool done_ = false;
 };
 
 /// Writes `path` atomically by streaming into an AtomicOutputFile: `writer` receives a binary

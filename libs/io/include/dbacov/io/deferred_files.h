@@ -8,7 +8,8 @@
 //     right after it is created. A later add() for the same path replaces the earlier contents.
 //   - commit() writes every file atomically (AtomicOutputFile), in the order of their first add():
 //     each file is the previous version or the complete new one, never a partial write; a file
-//     that fails does not stop the others.
+//     that fails does not stop the others. All files are prepared (written, fsync'ed) before the
+//     first is renamed, in one io::CommitGroup (the caller's, when one is active).
 //   - Destroying the object without commit() writes nothing (the spool disappears).
 // Errors (spool cannot be created or written, a file cannot be written) throw dbacov::InputError
 // naming the path. Misuse (add or commit after commit) throws std::logic_error. Not thread-safe.

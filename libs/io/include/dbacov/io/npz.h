@@ -67,6 +67,8 @@ class NpzReader {
   std::vector<NpyArray> readAll(const std::vector<std::string>& keys) const;
 
  private:
+  /// InputError when two members share a name (constructors call it).
+  void checkUniqueMembers() const;
   struct Impl;
   struct RawMember;
   RawMember fetch(const std::string& key) const;  ///< checks, then the member's raw bytes

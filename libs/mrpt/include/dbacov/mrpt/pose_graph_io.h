@@ -26,7 +26,9 @@ namespace dbacov::mrpt_bridge {
 /// CNetworkOfPoses3DInf with the graph's nodes and edges; root = the lowest node id.
 mrpt::graphs::CNetworkOfPoses3DInf toNetwork(const PoseGraph& graph);
 /// Nodes and edges of an MRPT network (no times). Edges keep MRPT's (from, to) direction.
-PoseGraph fromNetwork(const mrpt::graphs::CNetworkOfPoses3DInf& net);
+/// Throws InputError naming `source` for node ids beyond 2^31 - 1 (they would alias other nodes).
+PoseGraph fromNetwork(const mrpt::graphs::CNetworkOfPoses3DInf& net,
+                      const std::string& source = "graph");
 
 /// MRPT's binary serialization of toNetwork(graph), written atomically.
 void writeGraphBinary(const std::string& path, const PoseGraph& graph);
@@ -38,6 +40,14 @@ enum class GraphTextLayout { Mrpt258, G2o };
 void writeGraphText(const std::string& path, const PoseGraph& graph, GraphTextLayout layout);
 /// MRPT's own text loader (loadFromTextFile). Throws InputError naming the file.
 mrpt::graphs::CNetworkOfPoses3DInf readGraphMrptText(const std::string& path);
+
+/// Refuses the lines of a text graph that MRPT's loader would misread silently: an edge whose
+/// information is missing, too short, NaN/inf or not a number (MRPT uses the identity), a vertex
+/// or edge with too few values, node ids that are not integers in [0, 2^31) (they would alias
+/// other nodes). InputError "<path>:<line>: edge <from> -> <to>: ...". readGraphMrptText calls it.
+void checkGraphText(const std::string& path);
+/// InputError "<where>: node id <id> is beyond the ids dbacov handles ..." when id > 2^31 - 1.
+void checkNodeId(unsigned long long id, const std::string& where);
 
 /// The 21 values of an EDGE_SE3:QUAT line for information Λ (tangent [t; ω]) in a layout.
 std::vector<double> informationToText(const Matrix6d& information, GraphTextLayout layout);
