@@ -126,6 +126,11 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
   cli.add_option(
       "--graph", opt.graph_prefix,
       "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
+  cli.add_option("--graph-edges", opt.graph_edges,
+                 "chain (default) or covisibility: the whole-sequence information counted once, "
+                 "exported conservatively (fusable); snapshot-marginals-not-fusable: the old "
+                 "per-snapshot marginal edges (the same pixels counted many times)")
+      ->check(CLI::IsMember({"chain", "covisibility", "snapshot-marginals-not-fusable"}));
   cli.add_option("--relative-csv", opt.relative_csv_path,
                  "Write one row per (snapshot, keyframe pair): relative pose and covariance");
   cli.add_option("--depth-sigma", opt.depth_sigma_dir,
@@ -189,7 +194,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       sinks.push_back(std::make_unique<DepthSigmaSink>(opt.depth_sigma_dir));
     GraphSink* graph = nullptr;
     if (!opt.graph_prefix.empty()) {
-      auto g = std::make_unique<GraphSink>(opt.graph_prefix);
+      auto g = std::make_unique<GraphSink>(opt.graph_prefix, opt.graph_edges, engine);
       graph = g.get();
       sinks.push_back(std::move(g));
     }
@@ -277,6 +282,8 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
           if (policy == FailurePolicy::FailFast) break;
         }
       }
+      if (graph && !graph->summary().empty() && !opt.quiet)
+        err << "dba-covariance: " << graph->summary() << '\n';
       if (graph && graph->uninformativePairs() && !opt.quiet)
         err << "dba-covariance: note: " << graph->uninformativePairs()
             << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative "
