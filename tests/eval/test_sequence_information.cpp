@@ -78,7 +78,8 @@ RunNees runOnce(const sim::Scenario& sc, int run) {
     (t == GraphTopology::Chain          ? r.chain
      : t == GraphTopology::Covisibility ? r.covis
                                         : r.decomp) = sum;
-    std::cout << toString(t) << " scale " << sg.scale << " kl " << sg.kl << "\n";
+    std::cout << toString(t) << " scale " << sg.scale << " kl " << sg.kl << " steps "
+              << sg.barrier_iterations << "\n";
   }
   return r;
 }

@@ -41,10 +41,13 @@ Conventions (README.md has the details):
   converted exactly (to first order) from the tangent one; timestamp = the keyframe's time
   ('timestamps_s', or tstamp / --fps). --emit final identifies keyframes by their tstamp and
   writes them in time order. Inputs may be rawlogs of DBA snapshots (droid2rawlog).
-  --graph: one node per keyframe (id = keyframe index, its latest T_wc), one edge per co-visible
-  or consecutive pair (lower -> higher index) with the relative pose and the information (inverse
-  relative covariance, tangent [rho; phi]) from the last snapshot containing both whose gauge does
-  not fix their relative pose. .graphbin keeps everything; .graph is laid out for MRPT 2.5.8's
+  --graph: the whole sequence as one DBA problem (each edge's final flows, each keyframe's final
+  depths and pose; node id = keyframe number in tstamp order), re-solved, its depth-reduced pose
+  information exported onto the co-visible and consecutive pairs (--graph-edges covisibility) or
+  the chain of consecutive keyframes (chain), never exceeding the true information: the edges
+  may be fused with independent loop closures and priors. --graph-edges
+  snapshot-marginals-not-fusable keeps the old graph (inverse per-snapshot marginal relative
+  covariances: the same pixels counted in many edges, over-confident when optimized). .graphbin keeps everything; .graph is laid out for MRPT 2.5.8's
   text loader (which drops rotation-rotation off-diagonal information); .g2o uses g2o's order
   and its quaternion-vector error (rotation information x4). dba-posegraph optimizes it.
   All outputs are written atomically (temporary file, then rename).)";
@@ -127,7 +130,7 @@ int runCovarianceApp(int argc, const char* const* argv, std::ostream& out, std::
       "--graph", opt.graph_prefix,
       "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
   cli.add_option("--graph-edges", opt.graph_edges,
-                 "chain (default) or covisibility: the whole-sequence information counted once, "
+                 "covisibility (default) or chain: the whole-sequence information counted once, "
                  "exported conservatively (fusable); snapshot-marginals-not-fusable: the old "
                  "per-snapshot marginal edges (the same pixels counted many times)")
       ->check(CLI::IsMember({"chain", "covisibility", "snapshot-marginals-not-fusable"}));

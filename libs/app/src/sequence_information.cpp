@@ -155,8 +155,130 @@ bool positiveDefinite(const SparseMatrix& A_full) {
 
 }  // namespace
 
+namespace {
+
+struct EdgeData {
+  int a, b;            // slots
+  Matrix6d Jf, Jt;     // edge Jacobians at the linearization point
+  Matrix6d Sigma_rel;  // relative covariance under Λ
+};
+
+/// Full symmetric H = Σ_e J_eᵀ Ω_e J_e over the non-root slots.
+SparseMatrix assembleExported(const std::vector<EdgeData>& ed, const std::vector<PoseGraphEdge>& e,
+                              int n) {
+  std::vector<Eigen::Triplet<double>> trip;
+  auto put = [&](int p, int q, const Matrix6d& M) {
+    for (int c = 0; c < 6; ++c)
+      for (int r = 0; r < 6; ++r) {
+        trip.emplace_back(6 * (p - 1) + r, 6 * (q - 1) + c, M(r, c));
+        if (p != q) trip.emplace_back(6 * (q - 1) + c, 6 * (p - 1) + r, M(r, c));
+      }
+  };
+  for (std::size_t k = 0; k < ed.size(); ++k) {
+    const Matrix6d& O = e[k].information;
+    if (ed[k].a > 0) {
+      put(ed[k].a, ed[k].a, ed[k].Jf.transpose() * O * ed[k].Jf);
+      put(ed[k].a, ed[k].b, ed[k].Jf.transpose() * O * ed[k].Jt);
+    }
+    put(ed[k].b, ed[k].b, ed[k].Jt.transpose() * O * ed[k].Jt);
+  }
+  SparseMatrix H(n, n);
+  H.setFromTriplets(trip.begin(), trip.end());
+  return H;
+}
+
+/// Relative covariance J [Σ_aa Σ_ab; Σ_ba Σ_bb] Jᵀ of every edge under the inverse of A (full).
+std::vector<Matrix6d> edgeCovariances(const SparseMatrix& A, const std::vector<EdgeData>& ed) {
+  std::unique_ptr<MarginalSolver> solver = makeCholmodMarginalSolver();
+  solver->factorize(SparseMatrix(A.triangularView<Eigen::Upper>()));
+  auto idx = [](int slot) {
+    std::vector<int> v(6);
+    std::iota(v.begin(), v.end(), 6 * (slot - 1));
+    return v;
+  };
+  std::vector<Matrix6d> out;
+  for (const EdgeData& e : ed) {
+    Matrix6d C = e.Jt * solver->covariance(idx(e.b), idx(e.b)) * e.Jt.transpose();
+    if (e.a > 0) {
+      const Matrix6d Cab = solver->covariance(idx(e.a), idx(e.b));
+      C += e.Jf * solver->covariance(idx(e.a), idx(e.a)) * e.Jf.transpose() +
+           e.Jf * Cab * e.Jt.transpose() + e.Jt * Cab.transpose() * e.Jf.transpose();
+    }
+    out.push_back(0.5 * (C + C.transpose()));
+  }
+  return out;
+}
+
+bool positiveDefinite6(const Matrix6d& M) {
+  Eigen::LLT<Matrix6d> llt(M);
+  return llt.info() == Eigen::Success;
+}
+
+/// Conservative log-det maximization over the edge informations (a barrier method):
+///   maximize log det H(Ω) + μ log det(Λ − H(Ω)),  μ → 0,   H(Ω) = Σ_e J_eᵀ Ω_e J_e,
+/// by natural-gradient steps Ω_e ← Ω_e + η Ω_e (Σ̂_e − μ Ŝ_e) Ω_e, with Σ̂_e and Ŝ_e the edge's
+/// relative covariance under H⁻¹ and (Λ − H)⁻¹ (the gradient of the objective in Ω_e), η halved
+/// until every Ω_e and Λ − H stay positive definite and the objective increases. Every iterate is
+/// feasible, so the result never exceeds Λ. Returns the number of accepted steps.
+int maximizeLogDet(const SparseMatrix& Lf, const std::vector<EdgeData>& ed,
+                   std::vector<PoseGraphEdge>& edges) {
+  const int n = static_cast<int>(Lf.rows());
+  auto objective = [&](const std::vector<PoseGraphEdge>& e, double mu, bool* ok) {
+    const SparseMatrix H = assembleExported(ed, e, n);
+    Eigen::SimplicialLLT<SparseMatrix> lh(H), lr(SparseMatrix(Lf - H));
+    *ok = lh.info() == Eigen::Success && lr.info() == Eigen::Success;
+    if (!*ok) return 0.0;
+    double f = 0;
+    const SparseMatrix Lh = lh.matrixL(), Lr = lr.matrixL();
+    for (int k = 0; k < n; ++k)
+      f += 2 * std::log(Lh.coeff(k, k)) + mu * 2 * std::log(Lr.coeff(k, k));
+    return f;
+  };
+  // Start strictly inside the feasible set (the certified scale is on its boundary).
+  for (PoseGraphEdge& e : edges) e.information *= 0.5;
+  int accepted = 0;
+  for (double mu : {1.0, 0.3, 0.1, 0.03, 0.01, 0.003, 0.001, 3e-4, 1e-4}) {
+    bool ok = false;
+    double f = objective(edges, mu, &ok);
+    if (!ok) break;
+    for (int it = 0; it < 40; ++it) {
+      const SparseMatrix H = assembleExported(ed, edges, n);
+      const std::vector<Matrix6d> Sh = edgeCovariances(H, ed);
+      const std::vector<Matrix6d> Sr = edgeCovariances(SparseMatrix(Lf - H), ed);
+      std::vector<Matrix6d> step(edges.size());
+      for (std::size_t k = 0; k < edges.size(); ++k)
+        step[k] = edges[k].information * (Sh[k] - mu * Sr[k]) * edges[k].information;
+      bool moved = false;
+      for (double eta = 1.0; eta > 1e-4; eta *= 0.5) {
+        std::vector<PoseGraphEdge> trial = edges;
+        bool pd = true;
+        for (std::size_t k = 0; k < trial.size() && pd; ++k) {
+          Matrix6d O = trial[k].information + eta * step[k];
+          trial[k].information = 0.5 * (O + O.transpose());
+          pd = positiveDefinite6(trial[k].information);
+        }
+        if (!pd) continue;
+        bool feasible = false;
+        const double ft = objective(trial, mu, &feasible);
+        if (feasible && ft > f) {
+          const bool small = ft - f < 1e-6 * std::abs(f) + 1e-9;
+          edges = std::move(trial);
+          f = ft;
+          moved = !small;
+          ++accepted;
+          break;
+        }
+      }
+      if (!moved) break;
+    }
+  }
+  return accepted;
+}
+
+}  // namespace
+
 SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapshot& s,
-                                    GraphTopology topology) {
+                                    GraphTopology topology, bool refine) {
   const int n_slots = static_cast<int>(info.keyframes.size());
   std::map<int, int> slot_of;
   for (int a = 0; a < n_slots; ++a) slot_of[info.keyframes[a]] = a;
@@ -187,6 +309,7 @@ SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapsho
   // Marginal relative informations and H₁ = Σ_e J_eᵀ Ω_e J_e over the non-root slots.
   SparsifiedGraph out;
   double trace_H1_Sigma = 0;  // tr(H₁ Λ⁻¹) = Σ_e tr(Ω_e Σ_rel,e)
+  std::vector<EdgeData> edata;
   std::vector<Eigen::Triplet<double>> trip;
   for (const auto& [a, b] : pairs) {
     Matrix12d joint = Matrix12d::Zero();
@@ -222,6 +345,7 @@ SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapsho
     Vector6d r;
     Matrix6d Jf, Jt;
     poseGraphEdgeResidual(info.T_wc[a], info.T_wc[b], e.Z, &r, &Jf, &Jt);
+    edata.push_back({a, b, Jf, Jt, Sigma_rel});
     const Matrix6d& O = e.information;
     auto put = [&](int p, int q, const Matrix6d& M) {  // block (p, q), p <= q, upper only
       for (int c = 0; c < 6; ++c)
@@ -265,12 +389,16 @@ SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapsho
   out.dof = n;
   out.edges = out.graph.edges.size();
   const double logdet_L = logDetOrThrow(Lf, "the sequence information");
-  const double logdet_H = logDetOrThrow(SparseMatrix(c * H1f), "the exported information");
-  out.kl = 0.5 * (c * trace_H1_Sigma - n - logdet_H + logdet_L);
   for (PoseGraphEdge& e : out.graph.edges) {
     e.information *= c;
     e.information = 0.5 * (e.information + e.information.transpose());
   }
+  if (refine) out.barrier_iterations = maximizeLogDet(Lf, edata, out.graph.edges);
+  const SparseMatrix H = assembleExported(edata, out.graph.edges, n);
+  double trace = 0;
+  for (std::size_t k = 0; k < edata.size(); ++k)
+    trace += (out.graph.edges[k].information * edata[k].Sigma_rel).trace();
+  out.kl = 0.5 * (trace - n - logDetOrThrow(H, "the exported information") + logdet_L);
   for (int a = 0; a < n_slots; ++a) {
     const int k = info.keyframes[a];
     out.graph.nodes[k] = info.T_wc[a];

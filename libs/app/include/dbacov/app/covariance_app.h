@@ -15,7 +15,7 @@ struct CovarianceAppOptions {
   std::vector<std::string> inputs;
   std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path, graph_prefix;
   std::string emit = "latest", label = "DBA_COVARIANCE";
-  std::string graph_edges = "chain";  ///< --graph-edges
+  std::string graph_edges = "covisibility";  ///< --graph-edges
   std::optional<double> fps;
   std::string solver = "sparse", ordering = "auto";
   std::string preset = "droid";

@@ -143,7 +143,7 @@ class PoseRawlogSink final : public OutputSink {
 class GraphSink final : public OutputSink {
  public:
   /// Fails early (InputError) when PREFIX's directory is not writable.
-  explicit GraphSink(std::string prefix, std::string edges = "chain",
+  explicit GraphSink(std::string prefix, std::string edges = "covisibility",
                      const DbaOptions& options = DbaOptions::droid());
   void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
   void commit() override;

@@ -110,17 +110,18 @@ GraphTopology parseGraphTopology(const std::string& name);
 std::string toString(GraphTopology t);
 
 struct SparsifiedGraph {
-  PoseGraph graph;   ///< node id = keyframe index; edges from lower to higher id
-  double scale = 0;  ///< c: exported information = c · marginal-relative information
-  double kl = 0;     ///< KL(dense ‖ exported), nats
-  int dof = 0;       ///< n = dim Λ
+  PoseGraph graph;             ///< node id = keyframe index; edges from lower to higher id
+  double scale = 0;            ///< c: exported information = c · marginal-relative information
+  double kl = 0;               ///< KL(dense ‖ exported), nats
+  int dof = 0;                 ///< n = dim Λ
+  int barrier_iterations = 0;  ///< accepted log-det steps (0 without refinement)
   std::size_t edges = 0;
 };
 
 /// Exports Λ onto the edges of `topology` of snapshot `s` (its pairs, keyframe indices) as
 /// described above. Throws NumericalError when Λ is not positive definite.
 SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapshot& s,
-                                    GraphTopology topology);
+                                    GraphTopology topology, bool refine = true);
 
 /// The whole-sequence result of SequenceProblem: the assembled (re-solved) problem, its
 /// information and the solver's summary.
