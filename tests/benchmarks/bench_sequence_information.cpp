@@ -1,7 +1,7 @@
 // Issue 15: cost and loss of the whole-sequence information and its conservative export.
 //   bench_sequence_information [SNAPSHOTS]   (default 500; the smoke test runs 3)
 // Prints, for the shared DROID snapshot and for a simulated sliding-window sequence (48×64,
-// window 8, line, state = truth: no per-snapshot solve), the time of each step and the KL
+// window 8, loop, state = truth: no per-snapshot solve), the time of each step and the KL
 // divergence of the chain and co-visibility exports to the dense information.
 #include <chrono>
 #include <cstdio>
@@ -53,8 +53,7 @@ int main(int argc, char** argv) {
   }
   sim::ScenarioConfig c;
   c.trajectory.num_keyframes = snapshots + c.window - 1;
-  c.trajectory.type = sim::TrajectoryType::Line;
-  c.trajectory.step = 0.12;
+  c.trajectory.type = sim::TrajectoryType::Loop;  // laps of the room: any length fits
   c.solve = false;
   const sim::Scenario sc(c);
   SequenceProblem problem;

@@ -26,7 +26,11 @@ void SequenceProblem::add(const Snapshot& s) {
   ++snapshots_;
   const std::size_t P = s.pixelsPerFrame();
   for (int k : s.graphKeyframes()) {
-    Keyframe& kf = keyframes_[s.tstamp[k]];
+    const double ts = s.tstamp[k];
+    const auto [i, new_ts] = index_of_.emplace(ts, k);
+    const auto [j, new_k] = tstamp_of_.emplace(k, ts);
+    if ((!new_ts && i->second != k) || (!new_k && j->second != ts)) consistent_indices_ = false;
+    Keyframe& kf = keyframes_[ts];
     kf.pose_cw = s.poses_cw.row(k);
     kf.disp.assign(s.disps.begin() + k * P, s.disps.begin() + (k + 1) * P);
     if (s.timestamps_s) kf.time_s = (*s.timestamps_s)[k];
@@ -45,20 +49,30 @@ Snapshot SequenceProblem::assemble() const {
   s.H = H_;
   s.W = W_;
   s.intrinsics = intrinsics_;
-  const std::size_t P = s.pixelsPerFrame(), N = keyframes_.size();
-  s.poses_cw.resize(static_cast<Eigen::Index>(N), 7);
-  s.disps.resize(N * P);
-  std::map<double, int> index;
+  const std::size_t P = s.pixelsPerFrame();
+  std::map<double, int> index;  // tstamp → row
+  if (consistent_indices_) {
+    index = index_of_;
+  } else {
+    for (const auto& [tstamp, kf] : keyframes_)
+      index.emplace(tstamp, static_cast<int>(index.size()));
+  }
+  int N = 0;
+  for (const auto& [tstamp, k] : index) N = std::max(N, k + 1);
+  s.poses_cw = Eigen::Matrix<double, Eigen::Dynamic, 7, Eigen::RowMajor>::Zero(N, 7);
+  s.poses_cw.col(6).setOnes();  // filler rows: identity, no edge
+  s.disps.assign(static_cast<std::size_t>(N) * P, 0.0f);
+  s.tstamp.resize(N);
+  for (int k = 0; k < N; ++k) s.tstamp[k] = -1.0 - k;  // filler rows: a time stamp no one has
   bool times = true;
-  std::vector<double> time_s;
+  std::vector<double> time_s(N, 0.0);
   for (const auto& [tstamp, kf] : keyframes_) {
-    const int k = static_cast<int>(s.tstamp.size());
-    index[tstamp] = k;
-    s.tstamp.push_back(tstamp);
+    const int k = index.at(tstamp);
+    s.tstamp[k] = tstamp;
     s.poses_cw.row(k) = kf.pose_cw;
     std::copy(kf.disp.begin(), kf.disp.end(), s.disps.begin() + k * P);
     times = times && kf.time_s.has_value();
-    time_s.push_back(kf.time_s.value_or(0.0));
+    time_s[k] = kf.time_s.value_or(0.0);
   }
   if (times) s.timestamps_s = time_s;
   s.target.reserve(edges_.size() * 2 * P);

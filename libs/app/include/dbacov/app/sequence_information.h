@@ -52,9 +52,12 @@ class SequenceProblem {
   /// Takes a valid snapshot's graph keyframes and edges (newer snapshots replace older values).
   /// Throws InputError naming the snapshot when its grid or intrinsics differ from the first.
   void add(const Snapshot& s);
-  /// One snapshot over every keyframe seen (ascending tstamp: index = sequence number), with the
-  /// final state of every keyframe and the final targets/weights of every edge. `id` unset,
-  /// `source` = "sequence". Throws InputError when nothing was added.
+  /// One snapshot over every keyframe seen, with the final state of every keyframe and the final
+  /// targets/weights of every edge. `id` unset, `source` = "sequence". Keyframe numbering: the
+  /// snapshots' own keyframe indices when they are consistent over the stream (one index per
+  /// tstamp and one tstamp per index, as in simul-dba; indices that no graph names get a filler
+  /// row that takes part in no edge), else the rank in ascending tstamp (DROID renumbers its
+  /// keyframes when it drops one). Throws InputError when nothing was added.
   Snapshot assemble() const;
   std::size_t numKeyframes() const { return keyframes_.size(); }
   std::size_t numEdges() const { return edges_.size(); }
@@ -73,6 +76,9 @@ class SequenceProblem {
   Eigen::Vector4d intrinsics_ = Eigen::Vector4d::Zero();
   std::map<double, Keyframe> keyframes_;
   std::map<std::pair<double, double>, Edge> edges_;
+  std::map<double, int> index_of_;  ///< tstamp → keyframe index in the snapshots
+  std::map<int, double> tstamp_of_;
+  bool consistent_indices_ = true;
   std::size_t snapshots_ = 0;
 };
 
