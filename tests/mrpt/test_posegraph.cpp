@@ -420,9 +420,25 @@ TEST(PoseGraphFiles, DbaCovarianceWritesTheGraphOfTheSequence) {
   EXPECT_EQ(r.code, 1);  // the output directory does not exist: refused before any work
   EXPECT_TRUE(contains(r.err, "out/g.graphbin")) << r.err;
   std::filesystem::create_directory(dir.file("out"));
+  // The default graph: the sequence information counted once (sequence_information.h).
+  const AppResult seq =
+      testing::runApp(app::runCovarianceApp, "dba-covariance",
+                      {"-i", dir.path(), "--graph", dir.file("out/s"), "--weight-scale", "4"});
+  ASSERT_EQ(seq.code, 0) << seq.err;
+  EXPECT_TRUE(contains(seq.err, "covisibility export of")) << seq.err;
+  EXPECT_TRUE(contains(seq.err, "KL to the dense information")) << seq.err;
+  const PoseGraph sg =
+      mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(dir.file("out/s.graphbin")));
+  EXPECT_EQ(sg.nodes.size(), 7u);
+  for (const PoseGraphEdge& e : sg.edges) {
+    Matrix6d unused;
+    EXPECT_TRUE(informationOf(e.information.inverse(), &unused)) << e.from << "->" << e.to;
+  }
+  // The old per-snapshot graph, named as what it is.
   const AppResult ok =
       testing::runApp(app::runCovarianceApp, "dba-covariance",
-                      {"-i", dir.path(), "--graph", dir.file("out/g"), "--weight-scale", "4"});
+                      {"-i", dir.path(), "--graph", dir.file("out/g"), "--weight-scale", "4",
+                       "--graph-edges", "snapshot-marginals-not-fusable"});
   ASSERT_EQ(ok.code, 0) << ok.err;
   EXPECT_TRUE(contains(ok.err, "1 keyframe pairs got no graph edge")) << ok.err;
   for (const char* ext : {".graphbin", ".graph", ".g2o", ".nodes.csv"})

@@ -45,7 +45,8 @@ TEST(DiskFull, AnOutputThatFailsMidRunIsGivenUpAndTheOthersGoOn) {
                                                     ": write failed: File too large \\(at entry "
                                                     "[0-9]+\\)")))
       << lines[1];
-  EXPECT_EQ(lines[2].rfind("dba-covariance: note: ", 0), 0u) << lines[2];  // the gauge pairs
+  // The graph's account (sequence information, issue 15).
+  EXPECT_EQ(lines[2].rfind("dba-covariance: graph: ", 0), 0u) << lines[2];
   // Each failing output costs exactly one snapshot; every other snapshot is processed.
   EXPECT_TRUE(std::regex_match(
       lines[3], std::regex("dba-covariance: 30 snapshots read, 28 processed, 2 failed: 2 output "

@@ -56,6 +56,8 @@ struct Inputs {
                dir.file("p.rawlog"),
                "--graph",
                dir.file("g"),
+               "--graph-edges",  // the old graph: its stderr note about the gauge pair
+               "snapshot-marginals-not-fusable",
                "--depth-sigma",
                dir.file("sigma")};
     for (const char* name :

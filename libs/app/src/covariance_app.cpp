@@ -41,10 +41,13 @@ Conventions (README.md has the details):
   converted exactly (to first order) from the tangent one; timestamp = the keyframe's time
   ('timestamps_s', or tstamp / --fps). --emit final identifies keyframes by their tstamp and
   writes them in time order. Inputs may be rawlogs of DBA snapshots (droid2rawlog).
-  --graph: one node per keyframe (id = keyframe index, its latest T_wc), one edge per co-visible
-  or consecutive pair (lower -> higher index) with the relative pose and the information (inverse
-  relative covariance, tangent [rho; phi]) from the last snapshot containing both whose gauge does
-  not fix their relative pose. .graphbin keeps everything; .graph is laid out for MRPT 2.5.8's
+  --graph: the whole sequence as one DBA problem (each edge's final flows, each keyframe's final
+  depths and pose; node id = keyframe number in tstamp order), re-solved, its depth-reduced pose
+  information exported onto the co-visible and consecutive pairs (--graph-edges covisibility) or
+  the chain of consecutive keyframes (chain), never exceeding the true information: the edges
+  may be fused with independent loop closures and priors. --graph-edges
+  snapshot-marginals-not-fusable keeps the old graph (inverse per-snapshot marginal relative
+  covariances: the same pixels counted in many edges, over-confident when optimized). .graphbin keeps everything; .graph is laid out for MRPT 2.5.8's
   text loader (which drops rotation-rotation off-diagonal information); .g2o uses g2o's order
   and its quaternion-vector error (rotation information x4). dba-posegraph optimizes it.
   All outputs are written atomically (temporary file, then rename).)";
@@ -92,6 +95,11 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
   cli.add_option(
       "--graph", opt.graph_prefix,
       "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
+  cli.add_option("--graph-edges", opt.graph_edges,
+                 "covisibility (default) or chain: the whole-sequence information counted once, "
+                 "exported conservatively (fusable); snapshot-marginals-not-fusable: the old "
+                 "per-snapshot marginal edges (the same pixels counted many times)")
+      ->check(CLI::IsMember({"chain", "covisibility", "snapshot-marginals-not-fusable"}));
   cli.add_option("--relative-csv", opt.relative_csv_path,
                  "Write one row per (snapshot, keyframe pair): relative pose and covariance");
   cli.add_option("--depth-sigma", opt.depth_sigma_dir,
@@ -129,7 +137,7 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
 
 /// Stage 2: one sink per requested output, the slowest (pictures) last. Throws InputError when an
 /// output cannot be created.
-Sinks makeSinks(const CovarianceAppOptions& opt, GraphSink** graph) {
+Sinks makeSinks(const CovarianceAppOptions& opt, const DbaOptions& engine, GraphSink** graph) {
   Sinks sinks;
   if (!opt.csv_path.empty()) sinks.push_back(std::make_unique<KeyframeCsvSink>(opt.csv_path));
   if (!opt.relative_csv_path.empty())
@@ -137,7 +145,7 @@ Sinks makeSinks(const CovarianceAppOptions& opt, GraphSink** graph) {
   if (!opt.depth_sigma_dir.empty())
     sinks.push_back(std::make_unique<DepthSigmaSink>(opt.depth_sigma_dir));
   if (!opt.graph_prefix.empty()) {
-    auto g = std::make_unique<GraphSink>(opt.graph_prefix);
+    auto g = std::make_unique<GraphSink>(opt.graph_prefix, opt.graph_edges, engine);
     *graph = g.get();
     sinks.push_back(std::move(g));
   }
@@ -214,6 +222,8 @@ class Run {
       err_ << "dba-covariance: error: " << e.what() << '\n';
       sum_.outputNotWritten();
     }
+    if (graph && !graph->summary().empty() && !opt_.quiet)
+      err_ << "dba-covariance: " << graph->summary() << '\n';
     if (graph && graph->uninformativePairs() && !opt_.quiet)
       err_ << "dba-covariance: note: " << graph->uninformativePairs()
            << " keyframe pairs got no graph edge: every snapshot's gauge fixed their relative "
@@ -328,7 +338,7 @@ int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
   try {
     const SnapshotInputs inputs(opt.inputs);
     GraphSink* graph = nullptr;
-    Run run(opt, makeSinks(opt, &graph), err);
+    Run run(opt, makeSinks(opt, engine, &graph), err);
     run.pipeline(inputs, engine);
     run.commit(graph);
     return run.finish();

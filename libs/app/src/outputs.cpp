@@ -167,16 +167,40 @@ void PoseRawlogSink::commit() {
   writer_->commit();
 }
 
-GraphSink::GraphSink(std::string prefix) : prefix_(std::move(prefix)) {
+GraphSink::GraphSink(std::string prefix, std::string edges, const DbaOptions& options)
+    : prefix_(std::move(prefix)), edges_(std::move(edges)), options_(options) {
+  sequence_ = edges_ != "snapshot-marginals-not-fusable";
+  if (sequence_) {
+    parseGraphTopology(edges_);  // throws std::invalid_argument for an unknown name
+    problem_ = std::make_unique<SequenceProblem>();
+  }
   io::AtomicOutputFile probe(prefix_ + ".graphbin");  // discarded: only checks the directory
 }
 
 void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) {
-  builder_.add(s, cov);
+  if (sequence_)
+    problem_->add(s);
+  else
+    builder_.add(s, cov);
 }
 
 void GraphSink::commit() {
-  const PoseGraph g = builder_.graph();
+  PoseGraph g;
+  if (sequence_) {
+    const SequenceInformation si = sequenceInformation(*problem_, options_);
+    const SparsifiedGraph sg = sparsifyInformation(si.info, si.problem, parseGraphTopology(edges_));
+    g = sg.graph;
+    std::ostringstream os;
+    os << "graph: " << problem_->numKeyframes() << " keyframes, " << problem_->numEdges()
+       << " DBA edges (final flows) of " << problem_->numSnapshots()
+       << " snapshots, re-solved: " << si.solve.brief() << "; " << edges_ << " export of "
+       << sg.edges << " edges, information scale " << formatDouble(sg.scale)
+       << ", KL to the dense information " << formatDouble(sg.kl) << " nats ("
+       << formatDouble(sg.kl / std::max(sg.dof, 1)) << " per DoF)";
+    summary_ = os.str();
+  } else {
+    g = builder_.graph();
+  }
   mrpt_bridge::mrptBridge().writeGraphFiles(prefix_, g);
   io::writeFileAtomically(prefix_ + ".nodes.csv", [&](std::ostream& os) {
     os << "node,tstamp,time_s\n";

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "dbacov/app/sequence_information.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/pose_graph.h"
 #include "dbacov/core/snapshot.h"
@@ -138,18 +139,29 @@ class PoseRawlogSink final : public OutputSink {
 /// PREFIX.graphbin (MRPT binary CNetworkOfPoses3DInf, every entry kept), PREFIX.graph (text laid
 /// out for MRPT 2.5.8's loader), PREFIX.g2o (g2o's convention) and PREFIX.nodes.csv
 /// (node,tstamp,time_s: the keyframe times that the graph formats cannot hold).
+/// Edges: `chain` / `covisibility` export the whole-sequence information counted once
+/// (sequence_information.h, fusable); `snapshot-marginals-not-fusable` is the builder's graph of
+/// per-snapshot marginal relative informations (the same pixels counted in many edges).
 class GraphSink final : public OutputSink {
  public:
   /// Fails early (InputError) when PREFIX's directory is not writable.
-  explicit GraphSink(std::string prefix);
+  explicit GraphSink(std::string prefix, std::string edges = "covisibility",
+                     const DbaOptions& options = DbaOptions::droid());
   void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
   void commit() override;
   /// Pairs that every snapshot's gauge fixed (no information, no edge).
-  std::size_t uninformativePairs() const { return builder_.numUninformativePairs(); }
+  std::size_t uninformativePairs() const {
+    return sequence_ ? 0 : builder_.numUninformativePairs();
+  }
+  /// One line about the exported sequence graph (empty for the per-snapshot graph).
+  const std::string& summary() const { return summary_; }
 
  private:
-  std::string prefix_;
+  std::string prefix_, edges_, summary_;
+  DbaOptions options_;
+  bool sequence_ = true;
   PoseGraphBuilder builder_;
+  std::unique_ptr<SequenceProblem> problem_;
 };
 
 /// snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,

@@ -1,0 +1,435 @@
+#include "dbacov/app/sequence_information.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <set>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseCholesky>
+
+#include "dbacov/core/gauge.h"
+#include "dbacov/core/marginal_solver.h"
+
+namespace dbacov::app {
+
+void SequenceProblem::add(const Snapshot& s) {
+  if (H_ < 0) {
+    H_ = s.H;
+    W_ = s.W;
+    intrinsics_ = s.intrinsics;
+  } else if (s.H != H_ || s.W != W_ || s.intrinsics != intrinsics_) {
+    throw InputError(s.source + " (snapshot " + std::to_string(s.label()) +
+                     "): its grid or intrinsics differ from the first snapshot's; one sequence "
+                     "problem needs one camera");
+  }
+  ++snapshots_;
+  const std::size_t P = s.pixelsPerFrame();
+  for (int k : s.graphKeyframes()) {
+    const double ts = s.tstamp[k];
+    const auto [i, new_ts] = index_of_.emplace(ts, k);
+    const auto [j, new_k] = tstamp_of_.emplace(k, ts);
+    if ((!new_ts && i->second != k) || (!new_k && j->second != ts)) consistent_indices_ = false;
+    Keyframe& kf = keyframes_[ts];
+    kf.pose_cw = s.poses_cw.row(k);
+    kf.disp.assign(s.disps.begin() + k * P, s.disps.begin() + (k + 1) * P);
+    if (s.timestamps_s) kf.time_s = (*s.timestamps_s)[k];
+  }
+  for (int e = 0; e < s.numEdges(); ++e) {
+    Edge& edge = edges_[{s.tstamp[s.ii[e]], s.tstamp[s.jj[e]]}];
+    edge.target.assign(s.targetPlane(e, 0), s.targetPlane(e, 0) + 2 * P);
+    edge.weight.assign(s.weightPlane(e, 0), s.weightPlane(e, 0) + 2 * P);
+  }
+}
+
+Snapshot SequenceProblem::assemble() const {
+  if (keyframes_.empty()) throw InputError("sequence: no snapshot was added");
+  Snapshot s;
+  s.source = "sequence";
+  s.H = H_;
+  s.W = W_;
+  s.intrinsics = intrinsics_;
+  const std::size_t P = s.pixelsPerFrame();
+  std::map<double, int> index;  // tstamp → row
+  if (consistent_indices_) {
+    index = index_of_;
+  } else {
+    for (const auto& [tstamp, kf] : keyframes_)
+      index.emplace(tstamp, static_cast<int>(index.size()));
+  }
+  int N = 0;
+  for (const auto& [tstamp, k] : index) N = std::max(N, k + 1);
+  s.poses_cw = Eigen::Matrix<double, Eigen::Dynamic, 7, Eigen::RowMajor>::Zero(N, 7);
+  s.poses_cw.col(6).setOnes();  // filler rows: identity, no edge
+  s.disps.assign(static_cast<std::size_t>(N) * P, 0.0f);
+  s.tstamp.resize(N);
+  for (int k = 0; k < N; ++k) s.tstamp[k] = -1.0 - k;  // filler rows: a time stamp no one has
+  bool times = true;
+  std::vector<double> time_s(N, 0.0);
+  for (const auto& [tstamp, kf] : keyframes_) {
+    const int k = index.at(tstamp);
+    s.tstamp[k] = tstamp;
+    s.poses_cw.row(k) = kf.pose_cw;
+    std::copy(kf.disp.begin(), kf.disp.end(), s.disps.begin() + k * P);
+    times = times && kf.time_s.has_value();
+    time_s[k] = kf.time_s.value_or(0.0);
+  }
+  if (times) s.timestamps_s = time_s;
+  s.target.reserve(edges_.size() * 2 * P);
+  s.weight.reserve(edges_.size() * 2 * P);
+  for (const auto& [ts, edge] : edges_) {
+    s.ii.push_back(index.at(ts.first));
+    s.jj.push_back(index.at(ts.second));
+    s.target.insert(s.target.end(), edge.target.begin(), edge.target.end());
+    s.weight.insert(s.weight.end(), edge.weight.begin(), edge.weight.end());
+  }
+  return s;
+}
+
+GaugedInformation gaugedInformation(const Snapshot& s, const DbaOptions& options) {
+  const DbaNormalEquations ne = linearizeDba(s, options);
+  const GaugeParameterization gauge = makeGauge(options.gauge, s, ne.keyframes);
+  checkGaugeReachesAll(ne.S, gauge, ne.keyframes);
+  const int root = gauge.gauge_slots[0], second = gauge.gauge_slots[1];
+  if (root != 0 || second != 1)
+    throw NumericalError("the gauge keyframes " +
+                             joinKeyframes({ne.keyframes[root], ne.keyframes[second]}) +
+                             " are not the two lowest graph keyframes",
+                         {ne.keyframes[root], ne.keyframes[second]});
+  GaugedInformation g;
+  g.keyframes = ne.keyframes;
+  for (int k : ne.keyframes) g.T_wc.push_back(s.T_wc(k));
+  const int n = ne.S.numSlots();
+  std::vector<Eigen::Triplet<double>> trip;
+  for (int a = 1; a < n; ++a)
+    for (const auto& [b, M] : ne.S.row(a)) {
+      Matrix6d B = M;
+      if (a == second && b == second) {
+        // The gauge's prior on the second keyframe, in the full tangent (gauge.h).
+        const double stiff = kStiffGauge * std::max(M.diagonal().maxCoeff(), 1e-300);
+        if (options.gauge.type == GaugeOptions::Type::TwoPose) {
+          for (int c = 0; c < 6; ++c) {
+            const double sigma = c < 3 ? options.gauge.sigma_trans : options.gauge.sigma_rot;
+            B(c, c) += sigma > 0 ? 1.0 / (sigma * sigma) : stiff;
+          }
+        } else {
+          // Removed direction = the unit vector orthogonal to the kept basis.
+          const Eigen::MatrixXd Q = gauge.basis[second];
+          const Eigen::MatrixXd P = Matrix6d::Identity() - Q * Q.transpose();
+          B += stiff * P;
+        }
+      }
+      if (a == second && b == second) g.gauge_prior = B - M;
+      for (int c = 0; c < 6; ++c)
+        for (int r = 0; r < 6; ++r)
+          if (a != b || r <= c) trip.emplace_back(6 * (a - 1) + r, 6 * (b - 1) + c, B(r, c));
+    }
+  g.S = ne.S;
+  g.Lambda.resize(6 * (n - 1), 6 * (n - 1));
+  g.Lambda.setFromTriplets(trip.begin(), trip.end());
+  return g;
+}
+
+GraphTopology parseGraphTopology(const std::string& name) {
+  if (name == "chain") return GraphTopology::Chain;
+  if (name == "covisibility") return GraphTopology::Covisibility;
+  if (name == "decomposition") return GraphTopology::Decomposition;
+  throw std::invalid_argument("unknown graph topology '" + name +
+                              "', expected chain or covisibility");
+}
+
+std::string toString(GraphTopology t) {
+  return t == GraphTopology::Chain          ? "chain"
+         : t == GraphTopology::Covisibility ? "covisibility"
+                                            : "decomposition";
+}
+
+namespace {
+
+using SparseMatrix = Eigen::SparseMatrix<double>;
+
+SparseMatrix fullSymmetric(const SparseMatrix& upper) {
+  SparseMatrix full = upper.selfadjointView<Eigen::Upper>();
+  return full;
+}
+
+double logDetOrThrow(const SparseMatrix& A_full, const std::string& what) {
+  Eigen::SimplicialLLT<SparseMatrix> llt(A_full);
+  if (llt.info() != Eigen::Success) throw NumericalError(what + " is not positive definite", {});
+  const SparseMatrix L = llt.matrixL();
+  double ld = 0;
+  for (int k = 0; k < L.cols(); ++k) ld += 2 * std::log(L.coeff(k, k));
+  return ld;
+}
+
+bool positiveDefinite(const SparseMatrix& A_full) {
+  Eigen::SimplicialLLT<SparseMatrix> llt(A_full);
+  return llt.info() == Eigen::Success;
+}
+
+}  // namespace
+
+namespace {
+
+struct EdgeData {
+  int a, b;            // slots
+  Matrix6d Jf, Jt;     // edge Jacobians at the linearization point
+  Matrix6d Sigma_rel;  // relative covariance under Λ
+};
+
+/// Full symmetric H = Σ_e J_eᵀ Ω_e J_e over the non-root slots.
+SparseMatrix assembleExported(const std::vector<EdgeData>& ed, const std::vector<PoseGraphEdge>& e,
+                              int n) {
+  std::vector<Eigen::Triplet<double>> trip;
+  auto put = [&](int p, int q, const Matrix6d& M) {
+    for (int c = 0; c < 6; ++c)
+      for (int r = 0; r < 6; ++r) {
+        trip.emplace_back(6 * (p - 1) + r, 6 * (q - 1) + c, M(r, c));
+        if (p != q) trip.emplace_back(6 * (q - 1) + c, 6 * (p - 1) + r, M(r, c));
+      }
+  };
+  for (std::size_t k = 0; k < ed.size(); ++k) {
+    const Matrix6d& O = e[k].information;
+    if (ed[k].a > 0) {
+      put(ed[k].a, ed[k].a, ed[k].Jf.transpose() * O * ed[k].Jf);
+      put(ed[k].a, ed[k].b, ed[k].Jf.transpose() * O * ed[k].Jt);
+    }
+    put(ed[k].b, ed[k].b, ed[k].Jt.transpose() * O * ed[k].Jt);
+  }
+  SparseMatrix H(n, n);
+  H.setFromTriplets(trip.begin(), trip.end());
+  return H;
+}
+
+/// Relative covariance J [Σ_aa Σ_ab; Σ_ba Σ_bb] Jᵀ of every edge under the inverse of A (full).
+std::vector<Matrix6d> edgeCovariances(const SparseMatrix& A, const std::vector<EdgeData>& ed) {
+  std::unique_ptr<MarginalSolver> solver = makeCholmodMarginalSolver();
+  solver->factorize(SparseMatrix(A.triangularView<Eigen::Upper>()));
+  auto idx = [](int slot) {
+    std::vector<int> v(6);
+    std::iota(v.begin(), v.end(), 6 * (slot - 1));
+    return v;
+  };
+  std::vector<Matrix6d> out;
+  for (const EdgeData& e : ed) {
+    Matrix6d C = e.Jt * solver->covariance(idx(e.b), idx(e.b)) * e.Jt.transpose();
+    if (e.a > 0) {
+      const Matrix6d Cab = solver->covariance(idx(e.a), idx(e.b));
+      C += e.Jf * solver->covariance(idx(e.a), idx(e.a)) * e.Jf.transpose() +
+           e.Jf * Cab * e.Jt.transpose() + e.Jt * Cab.transpose() * e.Jf.transpose();
+    }
+    out.push_back(0.5 * (C + C.transpose()));
+  }
+  return out;
+}
+
+bool positiveDefinite6(const Matrix6d& M) {
+  Eigen::LLT<Matrix6d> llt(M);
+  return llt.info() == Eigen::Success;
+}
+
+/// Conservative log-det maximization over the edge informations (a barrier method):
+///   maximize log det H(Ω) + μ log det(Λ − H(Ω)),  μ → 0,   H(Ω) = Σ_e J_eᵀ Ω_e J_e,
+/// by natural-gradient steps Ω_e ← Ω_e + η Ω_e (Σ̂_e − μ Ŝ_e) Ω_e, with Σ̂_e and Ŝ_e the edge's
+/// relative covariance under H⁻¹ and (Λ − H)⁻¹ (the gradient of the objective in Ω_e), η halved
+/// until every Ω_e and Λ − H stay positive definite and the objective increases. Every iterate is
+/// feasible, so the result never exceeds Λ. Returns the number of accepted steps.
+int maximizeLogDet(const SparseMatrix& Lf, const std::vector<EdgeData>& ed,
+                   std::vector<PoseGraphEdge>& edges) {
+  const int n = static_cast<int>(Lf.rows());
+  auto objective = [&](const std::vector<PoseGraphEdge>& e, double mu, bool* ok) {
+    const SparseMatrix H = assembleExported(ed, e, n);
+    Eigen::SimplicialLLT<SparseMatrix> lh(H), lr(SparseMatrix(Lf - H));
+    *ok = lh.info() == Eigen::Success && lr.info() == Eigen::Success;
+    if (!*ok) return 0.0;
+    double f = 0;
+    const SparseMatrix Lh = lh.matrixL(), Lr = lr.matrixL();
+    for (int k = 0; k < n; ++k)
+      f += 2 * std::log(Lh.coeff(k, k)) + mu * 2 * std::log(Lr.coeff(k, k));
+    return f;
+  };
+  // Start strictly inside the feasible set (the certified scale is on its boundary).
+  for (PoseGraphEdge& e : edges) e.information *= 0.5;
+  int accepted = 0;
+  for (double mu : {1.0, 0.3, 0.1, 0.03, 0.01, 0.003, 0.001, 3e-4, 1e-4}) {
+    bool ok = false;
+    double f = objective(edges, mu, &ok);
+    if (!ok) break;
+    for (int it = 0; it < 40; ++it) {
+      const SparseMatrix H = assembleExported(ed, edges, n);
+      const std::vector<Matrix6d> Sh = edgeCovariances(H, ed);
+      const std::vector<Matrix6d> Sr = edgeCovariances(SparseMatrix(Lf - H), ed);
+      std::vector<Matrix6d> step(edges.size());
+      for (std::size_t k = 0; k < edges.size(); ++k)
+        step[k] = edges[k].information * (Sh[k] - mu * Sr[k]) * edges[k].information;
+      bool moved = false;
+      for (double eta = 1.0; eta > 1e-4; eta *= 0.5) {
+        std::vector<PoseGraphEdge> trial = edges;
+        bool pd = true;
+        for (std::size_t k = 0; k < trial.size() && pd; ++k) {
+          Matrix6d O = trial[k].information + eta * step[k];
+          trial[k].information = 0.5 * (O + O.transpose());
+          pd = positiveDefinite6(trial[k].information);
+        }
+        if (!pd) continue;
+        bool feasible = false;
+        const double ft = objective(trial, mu, &feasible);
+        if (feasible && ft > f) {
+          const bool small = ft - f < 1e-6 * std::abs(f) + 1e-9;
+          edges = std::move(trial);
+          f = ft;
+          moved = !small;
+          ++accepted;
+          break;
+        }
+      }
+      if (!moved) break;
+    }
+  }
+  return accepted;
+}
+
+}  // namespace
+
+SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapshot& s,
+                                    GraphTopology topology, bool refine) {
+  const int n_slots = static_cast<int>(info.keyframes.size());
+  std::map<int, int> slot_of;
+  for (int a = 0; a < n_slots; ++a) slot_of[info.keyframes[a]] = a;
+  std::vector<std::pair<int, int>> pairs;  // slots, a < b
+  if (topology == GraphTopology::Chain) {
+    for (int a = 0; a + 1 < n_slots; ++a) pairs.emplace_back(a, a + 1);
+  } else if (topology == GraphTopology::Covisibility) {
+    for (const auto& [ka, kb] : s.relativePairs())
+      pairs.emplace_back(slot_of.at(ka), slot_of.at(kb));
+  } else {
+    for (int a = 0; a < n_slots; ++a)
+      for (const auto& [b, M] : info.S.row(a))
+        if (b > a && !M.isZero(0)) pairs.emplace_back(a, b);
+  }
+
+  std::unique_ptr<MarginalSolver> solver = makeCholmodMarginalSolver();
+  try {
+    solver->factorize(info.Lambda);
+  } catch (const FactorizationError&) {
+    throw NumericalError("the sequence information is not positive definite", {});
+  }
+  auto idx = [](int slot) {
+    std::vector<int> v(6);
+    std::iota(v.begin(), v.end(), 6 * (slot - 1));
+    return v;
+  };
+
+  // Marginal relative informations and H₁ = Σ_e J_eᵀ Ω_e J_e over the non-root slots.
+  SparsifiedGraph out;
+  double trace_H1_Sigma = 0;  // tr(H₁ Λ⁻¹) = Σ_e tr(Ω_e Σ_rel,e)
+  std::vector<EdgeData> edata;
+  std::vector<Eigen::Triplet<double>> trip;
+  for (const auto& [a, b] : pairs) {
+    Matrix12d joint = Matrix12d::Zero();
+    if (a > 0) joint.topLeftCorner<6, 6>() = solver->covariance(idx(a), idx(a));
+    joint.bottomRightCorner<6, 6>() = solver->covariance(idx(b), idx(b));
+    if (a > 0) {
+      joint.topRightCorner<6, 6>() = solver->covariance(idx(a), idx(b));
+      joint.bottomLeftCorner<6, 6>() = joint.topRightCorner<6, 6>().transpose();
+    }
+    PoseGraphEdge e;
+    e.from = info.keyframes[a];
+    e.to = info.keyframes[b];
+    e.Z = info.T_wc[a].inverse() * info.T_wc[b];
+    const Matrix6d Sigma_rel = relativeCovariance(info.T_wc[a], info.T_wc[b], joint);
+    if (topology == GraphTopology::Decomposition) {
+      const Matrix6d Ad = adjoint(info.T_wc[b].inverse() * info.T_wc[a]);
+      Matrix6d O = -Ad.transpose().inverse() * *info.S.find(a, b);
+      O = 0.5 * (O + O.transpose());
+      if (a == 0 && b == 1) O += info.gauge_prior;
+      const Eigen::SelfAdjointEigenSolver<Matrix6d> es(O);
+      const double floor = 1e-9 * std::max(es.eigenvalues().maxCoeff(), 1e-300);
+      e.information = es.eigenvectors() * es.eigenvalues().cwiseMax(floor).asDiagonal() *
+                      es.eigenvectors().transpose();
+      e.information = 0.5 * (e.information + e.information.transpose());
+      trace_H1_Sigma += (e.information * Sigma_rel).trace();
+    } else if (!informationOf(Sigma_rel, &e.information)) {
+      throw NumericalError("the relative covariance of keyframes " + joinKeyframes({e.from, e.to}) +
+                               " is not positive definite",
+                           {e.from, e.to});
+    } else {
+      trace_H1_Sigma += 6;
+    }
+    Vector6d r;
+    Matrix6d Jf, Jt;
+    poseGraphEdgeResidual(info.T_wc[a], info.T_wc[b], e.Z, &r, &Jf, &Jt);
+    edata.push_back({a, b, Jf, Jt, Sigma_rel});
+    const Matrix6d& O = e.information;
+    auto put = [&](int p, int q, const Matrix6d& M) {  // block (p, q), p <= q, upper only
+      for (int c = 0; c < 6; ++c)
+        for (int rr = 0; rr < 6; ++rr)
+          if (p != q || rr <= c) trip.emplace_back(6 * (p - 1) + rr, 6 * (q - 1) + c, M(rr, c));
+    };
+    if (a > 0) {
+      put(a, a, Jf.transpose() * O * Jf);
+      put(a, b, Jf.transpose() * O * Jt);
+    }
+    put(b, b, Jt.transpose() * O * Jt);
+    out.graph.edges.push_back(e);
+  }
+  const int n = info.dim();
+  SparseMatrix H1(n, n);
+  H1.setFromTriplets(trip.begin(), trip.end());
+  const SparseMatrix H1f = fullSymmetric(H1), Lf = fullSymmetric(info.Lambda);
+
+  // λ_max(Λ⁻¹ H₁) by power iteration with the Rayleigh quotient (a lower bound), then certified.
+  Eigen::VectorXd v = Eigen::VectorXd::Ones(n);
+  double rho = 0;
+  for (int it = 0; it < 300; ++it) {
+    Eigen::VectorXd w = solver->solve(H1f * v);
+    const double next = v.dot(H1f * v) / v.dot(Lf * v);
+    v = w / w.norm();
+    if (it > 10 && std::abs(next - rho) <= 1e-10 * next) {
+      rho = next;
+      break;
+    }
+    rho = next;
+  }
+  rho = std::max(rho, v.dot(H1f * v) / v.dot(Lf * v));
+  double margin = 1e-6;
+  double c = 1.0 / (rho * (1 + margin));
+  while (!positiveDefinite(SparseMatrix(Lf - c * H1f))) {
+    margin *= 4;
+    c = 1.0 / (rho * (1 + margin));
+    if (margin > 1) throw NumericalError("the sparsification scale could not be certified", {});
+  }
+  out.scale = c;
+  out.dof = n;
+  out.edges = out.graph.edges.size();
+  const double logdet_L = logDetOrThrow(Lf, "the sequence information");
+  for (PoseGraphEdge& e : out.graph.edges) {
+    e.information *= c;
+    e.information = 0.5 * (e.information + e.information.transpose());
+  }
+  if (refine) out.barrier_iterations = maximizeLogDet(Lf, edata, out.graph.edges);
+  const SparseMatrix H = assembleExported(edata, out.graph.edges, n);
+  double trace = 0;
+  for (std::size_t k = 0; k < edata.size(); ++k)
+    trace += (out.graph.edges[k].information * edata[k].Sigma_rel).trace();
+  out.kl = 0.5 * (trace - n - logDetOrThrow(H, "the exported information") + logdet_L);
+  for (int a = 0; a < n_slots; ++a) {
+    const int k = info.keyframes[a];
+    out.graph.nodes[k] = info.T_wc[a];
+    out.graph.node_tstamp[k] = s.tstamp[k];
+    if (s.timestamps_s) out.graph.node_time[k] = (*s.timestamps_s)[k];
+  }
+  return out;
+}
+
+SequenceInformation sequenceInformation(const SequenceProblem& problem, const DbaOptions& options,
+                                        const DbaSolverOptions& solver) {
+  SequenceInformation si;
+  si.problem = problem.assemble();
+  si.problem.validate();
+  if (solver.max_iterations > 0) si.solve = solveDba(si.problem, options, solver);
+  si.info = gaugedInformation(si.problem, options);
+  return si;
+}
+
+}  // namespace dbacov::app
