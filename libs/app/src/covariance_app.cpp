@@ -128,7 +128,7 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
     if (!opt.anyOutput())
       throw std::invalid_argument(
           "no output requested: give -o, --csv, --relative-csv, "
-          "--depth-sigma, --graph, --scene, --snapshot or --plots");
+          "--depth-sigma, --graph, --scene, --snapshot, --plots or --edge-csv");
   } catch (...) {
     return detail::usageExitStatus(cli, "dba-covariance", out, err);
   }
