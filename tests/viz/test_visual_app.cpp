@@ -229,7 +229,7 @@ TEST(VisualApp, BadPictureOptionsAreUsageErrors) {
       {{"--scene", dir.file("s.3Dscene"), "--scene-exaggeration", "big"}, "--scene-exaggeration"},
       {{"--csv", dir.file("k.csv"), "--point-cloud"}, "--point-cloud needs --scene or --snapshot"},
       {{"--scene", dir.file("s.3Dscene"), "--scene-up", "up"}, "--scene-up"},
-      {{}, "--scene, --snapshot or --plots"},
+      {{}, "--scene, --snapshot, --plots or --edge-csv"},
   };
   for (const auto& [extra, message] : cases) {
     std::vector<std::string> args{"-i", in};
