@@ -27,6 +27,9 @@ inline void expectSameSnapshot(const Snapshot& a, const Snapshot& b,
   EXPECT_EQ(a.tstamp, b.tstamp);
   EXPECT_EQ(a.timestamps_s, b.timestamps_s);
   EXPECT_EQ(a.id, b.id);
+  EXPECT_EQ(a.disps_sens, b.disps_sens);
+  EXPECT_TRUE(a.stereo_rig == b.stereo_rig);
+  EXPECT_EQ(a.t0, b.t0);
 }
 
 }  // namespace dbacov::testing

@@ -13,6 +13,7 @@
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 #include "dbacov/mrpt/pose_conversion.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/sim/sensor_modes.h"
 #include "fixtures.h"
 #include "snapshot_compare.h"
 #include "temp_dir.h"
@@ -85,6 +86,37 @@ TEST(Rawlog, SnapshotObservationRoundTrip) {
     EXPECT_DOUBLE_EQ(mrpt::Clock::toDouble(obs->timestamp), 1234.5);
   }
   EXPECT_FALSE(reader.next());
+}
+
+TEST(Rawlog, DroidModesSurviveTheRawlog) {
+  // Stereo edges with their rig, RGB-D readings and DROID's t0 (serialization version 1): the
+  // record carries every key of conventions §1, so droid2rawlog and simul-dba --rawlog lose none.
+  testing::TempDir dir;
+  Snapshot s = testing::tinySnapshot(3, 4).snapshot;
+  sim::addStereoEdges(s, sim::StereoConfig{});
+  sim::addSensorDepth(s, sim::RgbdConfig{});
+  s.t0 = 1;
+  s.validate();
+  {
+    mrpt_bridge::RawlogWriter w(dir.file("s.rawlog"));
+    CObservationDbaSnapshot obs;
+    obs.snapshot = s;
+    w.write(obs);
+    w.commit();
+  }
+  mrpt_bridge::RawlogReader reader(dir.file("s.rawlog"));
+  auto obs = std::dynamic_pointer_cast<CObservationDbaSnapshot>(reader.next());
+  ASSERT_TRUE(obs);
+  ASSERT_TRUE(obs->snapshot.stereo_rig && obs->snapshot.disps_sens && obs->snapshot.t0);
+  expectSameSnapshot(obs->snapshot, s);
+  EXPECT_FALSE(reader.next());
+  // Through droid2rawlog from a .npz too.
+  io::saveSnapshotNpz(dir.file("s.npz"), s);
+  ASSERT_EQ(droid2rawlog({"-i", dir.file("s.npz"), "-o", dir.file("d.rawlog"), "-q"}).code, 0);
+  mrpt_bridge::RawlogReader converted(dir.file("d.rawlog"));
+  auto again = std::dynamic_pointer_cast<CObservationDbaSnapshot>(converted.next());
+  ASSERT_TRUE(again);
+  expectSameSnapshot(again->snapshot, s, /*intrinsics_as_float32=*/true);
 }
 
 TEST(Rawlog, RawlogEditReadsSnapshotsOnlyWithThePlugin) {

@@ -114,6 +114,43 @@ TEST(SimulApp, RawlogHoldsTheSameSnapshots) {
   EXPECT_EQ(n, 2);
 }
 
+TEST(SimulApp, StereoAndRgbdSnapshotsCarryTheirFactorsAndDroidsGauge) {
+  for (const std::string sensor : {"stereo", "rgbd"}) {
+    SCOPED_TRACE(sensor);
+    testing::TempDir dir;
+    const AppResult r = simul({"-o", dir.path(), "--sensor", sensor, "--gauge", "droid",
+                               "--snapshots", "2", "--height", "12", "--width", "16", "-q"});
+    ASSERT_EQ(r.code, 0) << r.err;
+    const Snapshot s1 = io::loadSnapshotNpz(dir.file("snapshot_0001.npz"), 1);
+    EXPECT_EQ(s1.t0, std::optional<std::int64_t>(2));  // snapshot 1's graph starts at keyframe 1
+    int stereo_edges = 0;
+    for (int e = 0; e < s1.numEdges(); ++e) stereo_edges += s1.ii[e] == s1.jj[e];
+    if (sensor == "stereo") {
+      ASSERT_TRUE(s1.stereo_rig);
+      EXPECT_EQ(s1.stereo_rig->head<3>(), Eigen::Vector3d(-0.1, 0, 0));
+      EXPECT_EQ(stereo_edges, 8);  // one per keyframe of the window
+      EXPECT_FALSE(s1.disps_sens);
+    } else {
+      ASSERT_TRUE(s1.disps_sens);
+      EXPECT_EQ(stereo_edges, 0);
+      int readings = 0;
+      for (float d : *s1.disps_sens) readings += d > 0;
+      EXPECT_GT(readings, 8 * 12 * 16 / 2);
+    }
+    // dba-covariance with the same gauge (and, for RGB-D, the simulated α) holds one keyframe.
+    std::vector<std::string> args{"-i",    dir.path(), "--weight-scale",  "4", "--gauge",
+                                  "droid", "--csv",    dir.file("c.csv"), "-q"};
+    if (sensor == "rgbd") args.insert(args.end(), {"--sensor-depth-weight", "400"});
+    const AppResult cov = testing::runApp(app::runCovarianceApp, "dba-covariance", args);
+    ASSERT_EQ(cov.code, 0) << cov.err;
+  }
+  testing::TempDir dir;
+  const AppResult mono = simul({"-o", dir.file("mono"), "--gauge", "droid"});
+  EXPECT_EQ(mono.code, 2);
+  EXPECT_TRUE(contains(mono.err, "--sensor stereo or rgbd")) << mono.err;
+  EXPECT_TRUE(dir.entries().empty());
+}
+
 TEST(SimulApp, BadUsageAndFailuresAreReported) {
   testing::TempDir dir;
   AppResult r = simul({"--snapshots", "2"});

@@ -72,8 +72,13 @@ std::string readLabel(mrpt::serialization::CArchive& in) {
 
 }  // namespace
 
+// Version 0: the monocular snapshot. Version 1 appends DROID's other modes (conventions §2): the
+// depth-sensor readings (disps_sens, RGB-D), the stereo rig transform and t0 (the droid gauge),
+// each behind a flag. A snapshot without them is still written as version 0, byte for byte as
+// before, so that older readers open every monocular rawlog.
 uint8_t CObservationDbaSnapshot::serializeGetVersion() const {
-  return 0;
+  const Snapshot& s = snapshot;
+  return s.disps_sens || s.stereo_rig || s.t0 ? 1 : 0;
 }
 
 void CObservationDbaSnapshot::serializeTo(mrpt::serialization::CArchive& out) const {
@@ -93,10 +98,17 @@ void CObservationDbaSnapshot::serializeTo(mrpt::serialization::CArchive& out) co
   if (s.timestamps_s) writeArray(out, s.timestamps_s->data(), s.timestamps_s->size());
   out << static_cast<bool>(s.id);
   if (s.id) out.WriteAs<int64_t>(*s.id);
+  if (serializeGetVersion() == 0) return;
+  out << static_cast<bool>(s.disps_sens);
+  if (s.disps_sens) writeArray(out, s.disps_sens->data(), s.disps_sens->size());
+  out << static_cast<bool>(s.stereo_rig);
+  if (s.stereo_rig) writeArray(out, s.stereo_rig->data(), 7);
+  out << static_cast<bool>(s.t0);
+  if (s.t0) out.WriteAs<int64_t>(*s.t0);
 }
 
 void CObservationDbaSnapshot::serializeFrom(mrpt::serialization::CArchive& in, uint8_t version) {
-  if (version != 0) MRPT_THROW_UNKNOWN_SERIALIZATION_VERSION(version);
+  if (version > 1) MRPT_THROW_UNKNOWN_SERIALIZATION_VERSION(version);
   Snapshot s;
   in >> timestamp;
   sensorLabel = readLabel(in);
@@ -109,8 +121,8 @@ void CObservationDbaSnapshot::serializeFrom(mrpt::serialization::CArchive& in, u
   // Refuse before allocating: every size below is bounded by this total.
   // (in floating point: the exact product of hostile sizes may overflow 64 bits)
   const std::uint64_t hw = std::uint64_t(H) * std::uint64_t(W);
-  const double bytes =
-      double(N) * (7 * 8 + 4 * double(hw) + 16) + double(E) * (16 + 16 * double(hw));
+  const double bytes = double(N) * (7 * 8 + 4 * double(hw) * (version >= 1 ? 2 : 1) + 16) +
+                       double(E) * (16 + 16 * double(hw));
   if (bytes > double(kMaxSnapshotBytes)) {
     char size[32];
     std::snprintf(size, sizeof size, "%.4g", bytes);
@@ -137,6 +149,16 @@ void CObservationDbaSnapshot::serializeFrom(mrpt::serialization::CArchive& in, u
   if (readFlag(in, "timestamps_s"))
     readArray(in, s.timestamps_s.emplace(), std::size_t(N), "timestamps_s");
   if (readFlag(in, "id")) s.id = in.ReadAs<int64_t>();
+  if (version >= 1) {
+    if (readFlag(in, "disps_sens"))
+      readArray(in, s.disps_sens.emplace(), std::size_t(N) * hw, "disps_sens");
+    if (readFlag(in, "stereo_rig")) {
+      std::vector<double> rig;
+      readArray(in, rig, 7, "stereo_rig");
+      s.stereo_rig = Eigen::Map<const Eigen::Matrix<double, 7, 1>>(rig.data());
+    }
+    if (readFlag(in, "t0")) s.t0 = in.ReadAs<int64_t>();
+  }
   s.source = snapshot.source;
   s.index = snapshot.index;
   snapshot = std::move(s);
@@ -156,7 +178,11 @@ void CObservationDbaSnapshot::getDescriptionAsText(std::ostream& o) const {
   o << ": " << s.numKeyframes() << " keyframes (" << s.graphKeyframes().size() << " in the graph), "
     << s.numEdges() << " edges, " << s.H << "x" << s.W << " grid, intrinsics fx=" << s.intrinsics[0]
     << " fy=" << s.intrinsics[1] << " cx=" << s.intrinsics[2] << " cy=" << s.intrinsics[3]
-    << (s.timestamps_s ? ", with keyframe times" : ", without keyframe times") << "\n";
+    << (s.timestamps_s ? ", with keyframe times" : ", without keyframe times");
+  if (s.stereo_rig) o << ", stereo rig";
+  if (s.disps_sens) o << ", depth-sensor readings";
+  if (s.t0) o << ", t0 = " << *s.t0;
+  o << "\n";
 }
 
 void registerDbacovMrptClasses() {

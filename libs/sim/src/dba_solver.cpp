@@ -319,9 +319,12 @@ DbaSolverSummary solveDba(Snapshot& s, const DbaOptions& o, const DbaSolverOptio
   const std::vector<int> keyframes = s.graphKeyframes();
   const GaugeParameterization gauge0 = makeGauge(o.gauge, s, keyframes);
   const std::vector<Prior> priors = makePriors(s, gauge0, keyframes);
+  // Only the minimal gauge needs its two keyframes here (the scale it holds); the droid gauge may
+  // hold a single keyframe (t0 = 1), so gauge_slots[1] need not exist.
   const bool minimal = o.gauge.type == GaugeOptions::Type::Minimal;
-  const int ka = keyframes[gauge0.gauge_slots[0]], kb = keyframes[gauge0.gauge_slots[1]];
-  const double D0 = (s.T_wc(kb).translation() - s.T_wc(ka).translation()).norm();
+  const int ka = minimal ? keyframes[gauge0.gauge_slots.at(0)] : -1;
+  const int kb = minimal ? keyframes[gauge0.gauge_slots.at(1)] : -1;
+  const double D0 = minimal ? (s.T_wc(kb).translation() - s.T_wc(ka).translation()).norm() : 0.0;
 
   Linearization L = linearize(s, o, priors, so.min_inverse_depth);
   checkGaugeReachesAll(L.ne.S, L.gauge, L.ne.keyframes);

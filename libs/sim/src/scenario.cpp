@@ -34,7 +34,19 @@ bool finitePositive(double v) {
   return std::isfinite(v) && v > 0;
 }
 
-enum Purpose : std::uint64_t { kWeights = 1, kNoise = 2, kInitialState = 3, kExtraNoise = 4 };
+enum Purpose : std::uint64_t {
+  kWeights = 1,
+  kNoise = 2,
+  kInitialState = 3,
+  kExtraNoise = 4,
+  kDepthReadings = 5,  ///< which pixels have a sensor reading (fixed by the scenario)
+  kDepthNoise = 6,     ///< the readings' noise (redrawn per run)
+};
+
+/// Stereo: the rig transform Y = T·X from the left camera to the right one.
+Eigen::Isometry3d rigTransform(const SensorConfig& c) {
+  return Eigen::Translation3d(-c.stereo_baseline, 0.0, 0.0) * Eigen::Isometry3d::Identity();
+}
 
 }  // namespace
 
@@ -56,6 +68,25 @@ SimulationMode parseSimulationMode(const std::string& name) {
 
 std::string toString(SimulationMode m) {
   return m == SimulationMode::SlidingWindow ? "sliding-window" : "whole";
+}
+
+SensorMode parseSensorMode(const std::string& name) {
+  if (name == "mono") return SensorMode::Mono;
+  if (name == "stereo") return SensorMode::Stereo;
+  if (name == "rgbd") return SensorMode::Rgbd;
+  throw std::invalid_argument("unknown sensor '" + name + "', expected mono, stereo or rgbd");
+}
+
+std::string toString(SensorMode m) {
+  switch (m) {
+    case SensorMode::Mono:
+      return "mono";
+    case SensorMode::Stereo:
+      return "stereo";
+    case SensorMode::Rgbd:
+      return "rgbd";
+  }
+  return "?";
 }
 
 void ScenarioConfig::validate() const {
@@ -92,6 +123,15 @@ void ScenarioConfig::validate() const {
             "the window must hold 2..(number of keyframes) keyframes");
   require(finiteNonNegative(gauge.sigma_rot) && finiteNonNegative(gauge.sigma_trans),
           "gauge sigmas must be >= 0");
+  require(finitePositive(sensor.stereo_baseline) && sensor.stereo_baseline <= 10,
+          "stereo baseline (--stereo-baseline, sensor.stereo_baseline) must be in (0, 10] m");
+  require(finitePositive(sensor.depth_alpha),
+          "depth-sensor information (--depth-alpha, sensor.depth_alpha) must be > 0");
+  require(sensor.depth_valid_fraction > 0 && sensor.depth_valid_fraction <= 1,
+          "depth-sensor valid fraction (sensor.depth_valid_fraction) must be in (0, 1]");
+  require(gauge.type != GaugeOptions::Type::Droid || sensor.mode != SensorMode::Mono,
+          "gauge droid holds one keyframe, which leaves the scale of monocular DBA free: use "
+          "--sensor stereo or rgbd, or gauge two-pose or minimal");
   require(finiteNonNegative(perturbation.translation) && finiteNonNegative(perturbation.rotation) &&
               finiteNonNegative(perturbation.inverse_depth),
           "initial perturbation sigmas must be >= 0");
@@ -113,6 +153,7 @@ DbaOptions ScenarioConfig::engineOptions() const {
     o.gauge_sigma_rot = gauge.sigma_rot;
     o.gauge_sigma_trans = gauge.sigma_trans;
   }
+  if (sensor.mode == SensorMode::Rgbd) o.sensor_depth_weight = sensor.depth_alpha;
   return o.resolve();
 }
 
@@ -143,7 +184,18 @@ Scenario::Scenario(ScenarioConfig config) : config_(std::move(config)) {
     const bool whole = config_.mode == SimulationMode::WholeTrajectory;
     const int last = whole ? K : s + config_.window;
     const std::vector<Eigen::Isometry3d> poses(T_wc_true_.begin(), T_wc_true_.begin() + last);
-    edges_.push_back(selectEdges(poses, whole ? 0 : s, config_.scene, K_, H, W, config_.edges));
+    std::vector<std::pair<int, int>> e =
+        selectEdges(poses, whole ? 0 : s, config_.scene, K_, H, W, config_.edges);
+    if (config_.sensor.mode == SensorMode::Stereo) {  // the left–right pair of every source
+      const std::set<int> sources = [&] {
+        std::set<int> out;
+        for (const auto& ij : e) out.insert(ij.first);
+        return out;
+      }();
+      for (int k : sources) e.emplace_back(k, k);
+      std::sort(e.begin(), e.end());
+    }
+    edges_.push_back(std::move(e));
   }
 }
 
@@ -182,6 +234,12 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
     snap.ii.push_back(i);
     snap.jj.push_back(j);
   }
+  const Eigen::Isometry3d T_rig = rigTransform(c.sensor);
+  if (c.sensor.mode == SensorMode::Stereo) {
+    Eigen::Matrix<double, 7, 1> rig;
+    rig << T_rig.translation(), 0.0, 0.0, 0.0, 1.0;
+    snap.stereo_rig = rig;
+  }
 
   // Confidences (fixed by the scenario) and targets (redrawn per run).
   std::mt19937_64 rng_w(mixSeed(c.seed, kWeights, s)), rng_n(mixSeed(c.seed, kNoise, s, run));
@@ -200,7 +258,9 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
   snap.weight.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
   for (int e = 0; e < E; ++e) {
     const int i = static_cast<int>(snap.ii[e]), j = static_cast<int>(snap.jj[e]);
-    const Eigen::Isometry3d T_ji = T_wc_true_[j].inverse() * T_wc_true_[i];
+    // The camera that sees edge e's targets: keyframe j, or keyframe i's right camera (stereo).
+    const Eigen::Isometry3d T_wc_j = i == j ? T_wc_true_[i] * T_rig.inverse() : T_wc_true_[j];
+    const Eigen::Isometry3d T_ji = T_wc_j.inverse() * T_wc_true_[i];
     const std::vector<double> n[2] = {field.sample(rng_n), field.sample(rng_n)};
     double affine[2][3] = {{0, 0, 0}, {0, 0, 0}};
     std::vector<double> gf[2];
@@ -221,8 +281,7 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
         visible = proj[0] >= -0.5 && proj[0] <= W - 0.5 && proj[1] >= -0.5 && proj[1] <= H - 0.5;
         // Hidden when the surface that camera j sees along this ray is nearer than the point
         // (point inverse depth in j: d / Y.z).
-        if (visible)
-          visible = d / Y.z() >= c.scene.inverseDepth(T_wc_true_[j], xn, yn) * (1.0 - 1e-3);
+        if (visible) visible = d / Y.z() >= c.scene.inverseDepth(T_wc_j, xn, yn) * (1.0 - 1e-3);
       }
       const bool zero = u01(rng_w) < c.weights.zero_fraction || !visible;
       const bool outlier = c.noise.outlier_fraction > 0 && u01(rng_x) < c.noise.outlier_fraction;
@@ -239,15 +298,32 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
       }
     }
   }
+  const std::set<std::int64_t> sources(snap.ii.begin(), snap.ii.end());
+  if (c.sensor.mode == SensorMode::Rgbd) {
+    // Readings on the source keyframes (DROID's disps_sens), d_true + N(0, 1/α); a draw that
+    // would not be positive is no reading (0), like a sensor's hole.
+    std::mt19937_64 rng_v(mixSeed(c.seed, kDepthReadings, s)),
+        rng_d(mixSeed(c.seed, kDepthNoise, s, run));
+    std::normal_distribution<double> nd(0.0, 1.0 / std::sqrt(c.sensor.depth_alpha));
+    snap.disps_sens = std::vector<float>(snap.disps.size(), 0.0f);
+    for (std::int64_t k : sources)
+      for (int p = 0; p < HW; ++p) {
+        const bool valid = u01(rng_v) < c.sensor.depth_valid_fraction;
+        const double v = disp_true_[k][p] + nd(rng_d);
+        if (valid && v > 0 && disp_true_[k][p] > 0)
+          (*snap.disps_sens)[static_cast<std::size_t>(k) * HW + p] = static_cast<float>(v);
+      }
+  }
+  const bool droid_gauge = c.gauge.type == GaugeOptions::Type::Droid;
+  if (droid_gauge) snap.t0 = *sources.begin() + 1;  // DROID's max(1, min(ii) + 1)
   snap.validate();
   if (!c.solve) return out;
 
   // Initial state: the truth perturbed, gauge held at the truth; then the solve.
   std::mt19937_64 rng_p(mixSeed(c.seed, kInitialState, s, run));
   std::normal_distribution<double> n01(0.0, 1.0);
-  const std::set<std::int64_t> sources(snap.ii.begin(), snap.ii.end());
   const int ga = static_cast<int>(*sources.begin()),
-            gb = static_cast<int>(*std::next(sources.begin()));
+            gb = droid_gauge ? -1 : static_cast<int>(*std::next(sources.begin()));
   const bool minimal = c.gauge.type == GaugeOptions::Type::Minimal;
   for (int k : snap.graphKeyframes()) {
     Vector6d xi;

@@ -202,6 +202,24 @@ std::vector<ScenarioField> makeSchema() {
   s.push_back(intrinsic("fy", &CameraConfig::fy, &PinholeIntrinsics::fy));
   s.push_back(intrinsic("cx", &CameraConfig::cx, &PinholeIntrinsics::cx));
   s.push_back(intrinsic("cy", &CameraConfig::cy, &PinholeIntrinsics::cy));
+  s.push_back(enumField<SensorMode>(
+      "sensor.mode", "--sensor",
+      "DROID mode: mono, stereo (an edge to the right camera of a rig per keyframe) or rgbd (a "
+      "depth-sensor reading per pixel); stereo and rgbd make the scale metric",
+      {"mono", "stereo", "rgbd"}, parseSensorMode, toString,
+      [](C & c) -> auto& { return c.sensor.mode; }));
+  s.push_back(field<double>(
+      "sensor.stereo_baseline", "--stereo-baseline",
+      "Stereo: baseline of the rig, metres (default 0.1, DROID's)",
+      [](C & c) -> auto& { return c.sensor.stereo_baseline; }));
+  s.push_back(field<double>(
+      "sensor.depth_alpha", "--depth-alpha",
+      "RGB-D: information of a depth reading, (inverse depth)^-2 (default 400); also the engine's "
+      "--sensor-depth-weight",
+      [](C & c) -> auto& { return c.sensor.depth_alpha; }));
+  s.push_back(field<double>(
+      "sensor.depth_valid_fraction", "", "",
+      [](C & c) -> auto& { return c.sensor.depth_valid_fraction; }));
   s.push_back(field<Eigen::Vector3d>(
       "scene.min", "", "", [](C & c) -> auto& { return c.scene.min_corner; }));
   s.push_back(field<Eigen::Vector3d>(
@@ -289,8 +307,8 @@ std::vector<ScenarioField> makeSchema() {
     // sigmas of the file, a minimal one has none.
     ScenarioField g = enumField<GaugeOptions::Type>(
         "gauge.type", "--gauge",
-        "Gauge of the solve, held at the truth: two-pose (hard unless the config gives sigmas) or "
-        "minimal",
+        "Gauge of the solve, held at the truth: two-pose (hard unless the config gives sigmas), "
+        "minimal, or droid (the first keyframe only: --sensor stereo or rgbd)",
         enumNames<GaugeOptions::Type>(), parseGauge, gaugeName,
         [](C & c) -> auto& { return c.gauge.type; });
     g.parse = [](const std::string& text, ScenarioConfig& c) {

@@ -22,6 +22,11 @@
 // distance from it. (A soft two-pose prior is centred at the truth and lets them move.)
 // The estimate is then expressed in the true frame and scale, which is what makes absolute NEES
 // meaningful (conventions §7); DROID itself holds its oldest poses at their estimates instead.
+// Under the `droid` gauge (stereo, RGB-D) only the first keyframe is held (at the truth); the
+// second starts perturbed like the others, scale included.
+// Sensor modes (SensorConfig): stereo adds the edge (k, k) per source keyframe k, with targets
+// through the rig (visibility and occlusion checked in the
+// right camera as for any edge); RGB-D sets disps_sens on the source keyframes.
 //
 // Randomness: every stream is seeded from (seed, purpose, snapshot[, run]) so that a snapshot
 // depends only on the configuration, its index and the run: confidences are fixed by the
@@ -31,6 +36,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -96,8 +102,30 @@ inline DbaSolverOptions defaultScenarioSolver() {
   return o;
 }
 
+/// The DROID-SLAM mode simulated (conventions §2): monocular flow only, or with the stereo factor
+/// (an edge ii == jj per source keyframe to the right camera of a rig, DROID's stereo mode) or the
+/// depth-sensor factor (RGB-D). Both carry metric information: the scale is then observable and
+/// the `droid` gauge may hold a single keyframe.
+enum class SensorMode { Mono, Stereo, Rgbd };
+/// "mono", "stereo", "rgbd"; throws std::invalid_argument otherwise.
+SensorMode parseSensorMode(const std::string& name);
+std::string toString(SensorMode m);
+
+struct SensorConfig {
+  SensorMode mode = SensorMode::Mono;
+  /// Stereo: the right camera sits `stereo_baseline` metres along +x of the left one, so that a
+  /// point X of the left camera is Y = X − (b, 0, 0) in the right one (stereo_rig = [−b 0 0 0 0 0
+  /// 1], DROID's rig with b = 0.1). Its targets get the confidences and noise of every edge.
+  double stereo_baseline = 0.1;
+  /// RGB-D: information α of one reading, (inverse depth)⁻²: d_sens = d_true + N(0, 1/α). It is
+  /// also the engine's sensor_depth_weight (engineOptions), so that the model is the truth.
+  double depth_alpha = 400.0;
+  double depth_valid_fraction = 0.8;  ///< RGB-D: fraction of the pixels with a reading
+};
+
 struct ScenarioConfig {
   CameraConfig camera;
+  SensorConfig sensor;
   RoomScene scene;
   TrajectoryConfig trajectory = defaultScenarioTrajectory();  ///< num_keyframes: whole sequence
   CovisibilityConfig edges = defaultScenarioEdges();
@@ -105,8 +133,11 @@ struct ScenarioConfig {
   NoiseModel noise;
   double weight_scale = 4.0;  ///< information of a target = weight_scale · w (px⁻²)
   SimulationMode mode = SimulationMode::SlidingWindow;
-  int window = 8;      ///< W, SlidingWindow only
-  GaugeOptions gauge;  ///< default: two-pose, hard (DROID's)
+  int window = 8;  ///< W, SlidingWindow only
+  /// Default: two-pose, hard (the paper's). `droid` holds the first keyframe of each snapshot's
+  /// graph only (t0 = that keyframe + 1, DROID's rule): stereo or RGB-D only, since monocular DBA
+  /// leaves the scale free.
+  GaugeOptions gauge;
   InitialPerturbation perturbation;
   bool solve = true;  ///< false: the stored state is the truth (no solve)
   DbaSolverOptions solver = defaultScenarioSolver();
