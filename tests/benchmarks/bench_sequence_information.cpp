@@ -27,7 +27,7 @@ static void exportBoth(const GaugedInformation& info, const Snapshot& s, const c
       const auto t0 = Clock::now();
       const SparsifiedGraph g = sparsifyInformation(info, s, t, refine);
       std::printf("%s: %-12s %-9s %4zu edges, dim %5d, KL %10.3f nats (%.4f per DoF), %8.3f s\n",
-                  what, toString(t).c_str(), refine ? "log-det" : "uniform", g.edges, g.dof, g.kl,
+                  what, toString(t), refine ? "log-det" : "uniform", g.edges, g.dof, g.kl,
                   g.kl / g.dof, since(t0));
     }
   }

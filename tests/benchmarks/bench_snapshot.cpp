@@ -1,6 +1,8 @@
 // Time per snapshot (issue 2): the real DROID snapshot ../shared/data/droid_window_0055.npz
 // (11 keyframes, 58 edges, 49×61) through the whole engine, one core.
 //   Load          .npz → validated Snapshot (libzip inflate + NPY parse + checks)
+//   LoadStored    the same snapshot saved with stored (not deflated) members, as np.savez or
+//                 dbacov_dump.py's compressed=False write it: parse + checks, no inflate
 //   Linearize     pixel factors + depth Schur complement, args (problem, threads): problem 0 =
 //                 the shared snapshot, 1 = a simulated DROID-sized window; vs the FLOP floor
 //   Covariances   linearize + gauge + factorize + every keyframe marginal (what --csv needs)
@@ -22,6 +24,16 @@ namespace {
 void BM_Load(benchmark::State& state) {
   if (skipWithoutSharedSnapshot(state)) return;
   for (auto _ : state) benchmark::DoNotOptimize(io::loadSnapshotNpz(kSharedSnapshot, 0));
+}
+
+void BM_LoadStored(benchmark::State& state) {
+  if (skipWithoutSharedSnapshot(state)) return;
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / "dbacov_bench_stored.npz";
+  io::saveSnapshotNpz(path.string(), sharedSnapshot(), /*compressed=*/false);
+  for (auto _ : state) benchmark::DoNotOptimize(io::loadSnapshotNpz(path.string(), 0));
+  state.counters["MB"] = static_cast<double>(std::filesystem::file_size(path)) / 1e6;
+  std::filesystem::remove(path);
 }
 
 /// 0: the shared DROID snapshot; 1: a simulated DROID-sized window (25 keyframes, 48×64).
@@ -61,6 +73,7 @@ void BM_Covariances(benchmark::State& state) {
 }
 
 BENCHMARK(BM_Load)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_LoadStored)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Linearize)
     ->Args({0, 1})
     ->Args({0, 2})

@@ -95,11 +95,10 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
   cli.add_option(
       "--graph", opt.graph_prefix,
       "Write the pose graph: PREFIX.graphbin, PREFIX.graph, PREFIX.g2o, PREFIX.nodes.csv");
-  cli.add_option("--graph-edges", opt.graph_edges,
-                 "covisibility (default) or chain: the whole-sequence information counted once, "
-                 "exported conservatively (fusable); snapshot-marginals-not-fusable: the old "
-                 "per-snapshot marginal edges (the same pixels counted many times)")
-      ->check(CLI::IsMember({"chain", "covisibility", "snapshot-marginals-not-fusable"}));
+  detail::addEnumOption(cli, "--graph-edges", opt.graph_edges,
+                        "covisibility (default) or chain: the whole-sequence information counted "
+                        "once, exported conservatively (fusable); snapshot-marginals-not-fusable: "
+                        "the old per-snapshot marginal edges (the same pixels counted many times)");
   cli.add_option("--relative-csv", opt.relative_csv_path,
                  "Write one row per (snapshot, keyframe pair): relative pose and covariance");
   cli.add_option("--depth-sigma", opt.depth_sigma_dir,

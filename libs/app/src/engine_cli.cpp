@@ -28,6 +28,7 @@ template CLI::Option* addEnumOption(CLI::App&, const std::string&, Preset&, cons
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, SolverKind&, const std::string&);
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, Ordering&, const std::string&);
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, EmitMode&, const std::string&);
+template CLI::Option* addEnumOption(CLI::App&, const std::string&, GraphEdges&, const std::string&);
 template CLI::Option* addEnumOption(CLI::App&, const std::string&,
                                     std::optional<GaugeOptions::Type>&, const std::string&);
 

@@ -167,13 +167,17 @@ void PoseRawlogSink::commit() {
   writer_->commit();
 }
 
-GraphSink::GraphSink(std::string prefix, std::string edges, const DbaOptions& options)
-    : prefix_(std::move(prefix)), edges_(std::move(edges)), options_(options) {
-  sequence_ = edges_ != "snapshot-marginals-not-fusable";
-  if (sequence_) {
-    parseGraphTopology(edges_);  // throws std::invalid_argument for an unknown name
-    problem_ = std::make_unique<SequenceProblem>();
-  }
+namespace {
+/// The topology of a whole-sequence `--graph-edges` choice.
+GraphTopology graphTopology(GraphEdges edges) {
+  return edges == GraphEdges::Chain ? GraphTopology::Chain : GraphTopology::Covisibility;
+}
+}  // namespace
+
+GraphSink::GraphSink(std::string prefix, GraphEdges edges, const DbaOptions& options)
+    : prefix_(std::move(prefix)), edges_(edges), options_(options) {
+  sequence_ = edges_ != GraphEdges::SnapshotMarginals;
+  if (sequence_) problem_ = std::make_unique<SequenceProblem>();
   io::AtomicOutputFile probe(prefix_ + ".graphbin");  // discarded: only checks the directory
 }
 
@@ -188,12 +192,12 @@ void GraphSink::commit() {
   PoseGraph g;
   if (sequence_) {
     const SequenceInformation si = sequenceInformation(*problem_, options_);
-    const SparsifiedGraph sg = sparsifyInformation(si.info, si.problem, parseGraphTopology(edges_));
+    const SparsifiedGraph sg = sparsifyInformation(si.info, si.problem, graphTopology(edges_));
     g = sg.graph;
     std::ostringstream os;
     os << "graph: " << problem_->numKeyframes() << " keyframes, " << problem_->numEdges()
        << " DBA edges (final flows) of " << problem_->numSnapshots()
-       << " snapshots, re-solved: " << si.solve.brief() << "; " << edges_ << " export of "
+       << " snapshots, re-solved: " << si.solve.brief() << "; " << toString(edges_) << " export of "
        << sg.edges << " edges, information scale " << formatDouble(sg.scale)
        << ", KL to the dense information " << formatDouble(sg.kl) << " nats ("
        << formatDouble(sg.kl / std::max(sg.dof, 1)) << " per DoF)";

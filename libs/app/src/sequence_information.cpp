@@ -130,20 +130,6 @@ GaugedInformation gaugedInformation(const Snapshot& s, const DbaOptions& options
   return g;
 }
 
-GraphTopology parseGraphTopology(const std::string& name) {
-  if (name == "chain") return GraphTopology::Chain;
-  if (name == "covisibility") return GraphTopology::Covisibility;
-  if (name == "decomposition") return GraphTopology::Decomposition;
-  throw std::invalid_argument("unknown graph topology '" + name +
-                              "', expected chain or covisibility");
-}
-
-std::string toString(GraphTopology t) {
-  return t == GraphTopology::Chain          ? "chain"
-         : t == GraphTopology::Covisibility ? "covisibility"
-                                            : "decomposition";
-}
-
 namespace {
 
 using SparseMatrix = Eigen::SparseMatrix<double>;

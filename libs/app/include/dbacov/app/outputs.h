@@ -99,7 +99,23 @@ enum class EmitMode {
   All,     ///< every graph keyframe of every snapshot
   Final,   ///< each keyframe once (identified by its tstamp), from the last snapshot containing it
 };
+
+/// `--graph-edges`: which pose graph `--graph` writes (GraphSink).
+enum class GraphEdges {
+  Covisibility,       ///< the whole-sequence information on co-visible pairs (fusable)
+  Chain,              ///< the same on consecutive keyframes only (fusable)
+  SnapshotMarginals,  ///< per-snapshot marginal relative informations (pixels counted many times)
+};
 }  // namespace dbacov::app
+
+template <>
+struct dbacov::EnumNames<dbacov::app::GraphEdges> {
+  static constexpr const char* what = "graph edge set";
+  static constexpr std::array<std::pair<app::GraphEdges, const char*>, 3> entries{
+      {{app::GraphEdges::Covisibility, "covisibility"},
+       {app::GraphEdges::Chain, "chain"},
+       {app::GraphEdges::SnapshotMarginals, "snapshot-marginals-not-fusable"}}};
+};
 
 template <>
 struct dbacov::EnumNames<dbacov::app::EmitMode> {
@@ -145,7 +161,7 @@ class PoseRawlogSink final : public OutputSink {
 class GraphSink final : public OutputSink {
  public:
   /// Fails early (InputError) when PREFIX's directory is not writable.
-  explicit GraphSink(std::string prefix, std::string edges = "covisibility",
+  explicit GraphSink(std::string prefix, GraphEdges edges = GraphEdges::Covisibility,
                      const DbaOptions& options = DbaOptions::droid());
   void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
   void commit() override;
@@ -157,7 +173,8 @@ class GraphSink final : public OutputSink {
   const std::string& summary() const { return summary_; }
 
  private:
-  std::string prefix_, edges_, summary_;
+  std::string prefix_, summary_;
+  GraphEdges edges_;
   DbaOptions options_;
   bool sequence_ = true;
   PoseGraphBuilder builder_;

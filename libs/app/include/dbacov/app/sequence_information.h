@@ -28,6 +28,7 @@
 //      = ½ [tr(c H₁ Λ⁻¹) − n − ln det(c H₁) + ln det Λ],   tr(H₁ Λ⁻¹) = Σ_e tr(Ω_e Σ_rel,e) = 6|E|.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <map>
 #include <optional>
@@ -111,9 +112,18 @@ enum class GraphTopology {
   /// positive definite cone.
   Decomposition,
 };
-/// "chain", "covisibility"; std::invalid_argument otherwise.
-GraphTopology parseGraphTopology(const std::string& name);
-std::string toString(GraphTopology t);
+}  // namespace dbacov::app
+
+template <>
+struct dbacov::EnumNames<dbacov::app::GraphTopology> {
+  static constexpr const char* what = "graph topology";
+  static constexpr std::array<std::pair<app::GraphTopology, const char*>, 3> entries{
+      {{app::GraphTopology::Chain, "chain"},
+       {app::GraphTopology::Covisibility, "covisibility"},
+       {app::GraphTopology::Decomposition, "decomposition"}}};
+};
+
+namespace dbacov::app {
 
 struct SparsifiedGraph {
   PoseGraph graph;             ///< node id = keyframe index; edges from lower to higher id
