@@ -4,7 +4,7 @@
 #   2. an MRPT header included in libs/, apps/ or python/ outside libs/mrpt: the MRPT bridge is
 #      the only code that sees MRPT, so the other libraries and the Python module load without it
 #      (tests may include MRPT: they check the files we write with MRPT itself);
-#   3. OpenCV included in libs/core, libs/io or libs/app.
+#   3. OpenCV included in libs/core, libs/io, libs/sim or libs/app (only libs/mrpt and libs/flow use it).
 # Usage: scripts/check_source.sh [--fix]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -40,9 +40,9 @@ if [ -n "$mrpt" ]; then
   echo "$mrpt" | sed 's/^/  /' >&2
   status=1
 fi
-opencv=$(git grep -nE '^\s*#\s*include\s*[<"]opencv2/' -- 'libs/core' 'libs/io' 'libs/app' || true)
+opencv=$(git grep -nE '^\s*#\s*include\s*[<"]opencv2/' -- 'libs/core' 'libs/io' 'libs/sim' 'libs/app' || true)
 if [ -n "$opencv" ]; then
-  echo "check_source: OpenCV is included in libs/core, libs/io or libs/app:" >&2
+  echo "check_source: OpenCV is included in libs/core, libs/io, libs/sim or libs/app:" >&2
   echo "$opencv" | sed 's/^/  /' >&2
   status=1
 fi

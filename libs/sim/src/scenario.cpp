@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <memory>
+#include <optional>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -41,6 +44,8 @@ enum Purpose : std::uint64_t {
   kExtraNoise = 4,
   kDepthReadings = 5,  ///< which pixels have a sensor reading (fixed by the scenario)
   kDepthNoise = 6,     ///< the readings' noise (redrawn per run)
+  kTexture = 7,        ///< the room's texture (fixed by the scenario)
+  kImageNoise = 8,     ///< the rendered images' sensor noise (redrawn per run)
 };
 
 /// Stereo: the rig transform Y = T·X from the left camera to the right one.
@@ -109,6 +114,7 @@ void ScenarioConfig::validate() const {
           "max overlap edges must be >= 0 and candidate distance > 0");
   weights.validate();
   noise.validate();
+  flow.validate();
   // A correlation longer than the grid makes each image's noise one offset, and its kernel (8ℓ/√2
   // wide) would need memory and time beyond the grid's: bound it by the grid (issue 16).
   require(noise.type != NoiseModel::Type::Correlated ||
@@ -256,11 +262,52 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
   const int E = snap.numEdges();
   snap.target.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
   snap.weight.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
+  // Image-based targets (image_flow.h): every camera rendered once per (snapshot, run), keyed by
+  // keyframe (left camera) or −1 − keyframe (its right camera, stereo).
+  std::unique_ptr<FlowEstimator> estimator;
+  std::optional<ProceduralTexture> texture;
+  std::map<int, GrayImage> images;
+  if (!c.flow.isModel()) {
+    estimator = makeFlowEstimator(c.flow.source);
+    texture.emplace(mixSeed(c.seed, kTexture, 0), c.flow.texture_scale);
+  }
+  const int rs = c.flow.render_scale;
+  const PinholeIntrinsics K_render = renderIntrinsics(K_, rs);
+  auto image = [&](int key, const Eigen::Isometry3d& T_wc) -> const GrayImage& {
+    auto it = images.find(key);
+    if (it == images.end())
+      it = images
+               .emplace(key, renderImage(c.scene, *texture, T_wc, K_render, rs * H, rs * W,
+                                         c.flow.image_noise,
+                                         mixSeed(c.seed, kImageNoise, s, run * 1000003 + key)))
+               .first;
+    return it->second;
+  };
   for (int e = 0; e < E; ++e) {
     const int i = static_cast<int>(snap.ii[e]), j = static_cast<int>(snap.jj[e]);
     // The camera that sees edge e's targets: keyframe j, or keyframe i's right camera (stereo).
     const Eigen::Isometry3d T_wc_j = i == j ? T_wc_true_[i] * T_rig.inverse() : T_wc_true_[j];
     const Eigen::Isometry3d T_ji = T_wc_j.inverse() * T_wc_true_[i];
+    if (estimator) {
+      const GrayImage& from = image(i, T_wc_true_[i]);
+      const GrayImage& to = image(i == j ? -1 - i : j, T_wc_j);
+      // The estimator refines the flow induced by a perturbed pose of the other camera (the
+      // initial perturbation's σ), as DROID refines the flow induced by its current estimate.
+      auto perturbed = [&](const Eigen::Isometry3d& T) {
+        Vector6d xi;
+        for (int q = 0; q < 6; ++q)
+          xi[q] = nx(rng_x) * (q < 3 ? c.perturbation.translation : c.perturbation.rotation);
+        return Eigen::Isometry3d(T * expSE3(xi));
+      };
+      const FlowField init_fw =
+          inducedFlow(c.scene, T_wc_true_[i], perturbed(T_wc_j), K_render, rs * H, rs * W);
+      const FlowField init_bw =
+          inducedFlow(c.scene, T_wc_j, perturbed(T_wc_true_[i]), K_render, rs * H, rs * W);
+      flowTargets(estimator->compute(from, to, init_fw), estimator->compute(to, from, init_bw), H,
+                  W, c.flow, &snap.target[static_cast<std::size_t>(e) * 2 * HW],
+                  &snap.weight[static_cast<std::size_t>(e) * 2 * HW]);
+      continue;
+    }
     const std::vector<double> n[2] = {field.sample(rng_n), field.sample(rng_n)};
     double affine[2][3] = {{0, 0, 0}, {0, 0, 0}};
     std::vector<double> gf[2];

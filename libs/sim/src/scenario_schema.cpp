@@ -32,6 +32,9 @@ T fromJson(const json& v, const std::string& where) {
   } else if constexpr (std::is_floating_point_v<T>) {
     if (!v.is_number()) typeError(where, "expected a number");
     return v.get<T>();
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    if (!v.is_string()) typeError(where, "expected a string");
+    return v.get<std::string>();
   } else if constexpr (std::is_same_v<T, Eigen::Vector3d>) {
     if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() ||
         !v[2].is_number())
@@ -74,7 +77,10 @@ ScenarioField field(std::string key, std::string flag, std::string help, Access 
   f.key = std::move(key);
   f.flag = std::move(flag);
   f.help = std::move(help);
-  f.type_name = std::is_floating_point_v<T> ? "FLOAT" : std::is_integral_v<T> ? "INT" : "";
+  f.type_name = std::is_floating_point_v<T>      ? "FLOAT"
+                : std::is_integral_v<T>          ? "INT"
+                : std::is_same_v<T, std::string> ? "TEXT"
+                                                 : "";
   f.read = [access](const json& v, ScenarioConfig& c, const std::string& where) {
     access(c) = fromJson<T>(v, where);
   };
@@ -85,7 +91,9 @@ ScenarioField field(std::string key, std::string flag, std::string help, Access 
     else
       return json(v);
   };
-  if constexpr (!std::is_same_v<T, Eigen::Vector3d> && !std::is_same_v<T, bool>) {
+  if constexpr (std::is_same_v<T, std::string>) {
+    f.parse = [access](const std::string& text, ScenarioConfig& c) { access(c) = text; };
+  } else if constexpr (!std::is_same_v<T, Eigen::Vector3d> && !std::is_same_v<T, bool>) {
     const std::string fl = f.flag;
     f.parse = [access, fl](const std::string& text, ScenarioConfig& c) {
       access(c) = fromText<T>(text, fl);
@@ -302,6 +310,22 @@ std::vector<ScenarioField> makeSchema() {
       "noise.outlier_fraction", "", "", [](C & c) -> auto& { return c.noise.outlier_fraction; }));
   s.push_back(field<double>(
       "noise.outlier_factor", "", "", [](C & c) -> auto& { return c.noise.outlier_factor; }));
+  s.push_back(field<std::string>(
+      "flow.source", "--flow",
+      "Targets: model (true projection + the noise model) or dis / farneback (OpenCV's dense "
+      "optical flow between rendered textured images, confidence from forward-backward "
+      "consistency)",
+      [](C & c) -> auto& { return c.flow.source; }));
+  s.push_back(field<int>(
+      "flow.render_scale", "", "", [](C & c) -> auto& { return c.flow.render_scale; }));
+  s.push_back(field<double>(
+      "flow.image_noise", "--image-noise",
+      "Image flow: sensor noise of the rendered images, grey levels (default 2)",
+      [](C & c) -> auto& { return c.flow.image_noise; }));
+  s.push_back(field<double>(
+      "flow.fb_scale_px", "", "", [](C & c) -> auto& { return c.flow.fb_scale_px; }));
+  s.push_back(field<double>(
+      "flow.texture_scale", "", "", [](C & c) -> auto& { return c.flow.texture_scale; }));
   {
     // --gauge names the type only, as everywhere (DbaOptionOverrides): a two-pose gauge keeps the
     // sigmas of the file, a minimal one has none.

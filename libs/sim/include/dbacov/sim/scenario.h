@@ -46,6 +46,7 @@
 #include "dbacov/core/snapshot.h"
 #include "dbacov/sim/covisibility.h"
 #include "dbacov/sim/dba_solver.h"
+#include "dbacov/sim/image_flow.h"
 #include "dbacov/sim/pixel_models.h"
 #include "dbacov/sim/scene.h"
 #include "dbacov/sim/trajectory.h"
@@ -131,6 +132,9 @@ struct ScenarioConfig {
   CovisibilityConfig edges = defaultScenarioEdges();
   WeightModel weights;
   NoiseModel noise;
+  /// Where the targets come from: the noise model (default) or rendered images through a registered
+  /// optical flow estimator (image_flow.h); with an estimator, `weights` and `noise` are unused.
+  ImageFlowConfig flow;
   double weight_scale = 4.0;  ///< information of a target = weight_scale · w (px⁻²)
   SimulationMode mode = SimulationMode::SlidingWindow;
   int window = 8;  ///< W, SlidingWindow only
