@@ -5,7 +5,7 @@ factor graph is handed to ``import dbacov`` in-process (``dbacov.from_droid``: n
 the newest graph keyframe, if it was not reported yet, one line is printed with the standard
 deviations of its marginal covariance (tangent [rho; phi] of T_wc, conventions §3)::
 
-    dbacov: keyframe 11 frame 55 t 2.750000 s: sigma_t 0.1712 0.1598 0.1034 sigma_r_deg 13.1 11.2 5.03
+    dbacov: keyframe 10 frame 55 t 2.750000 s: sigma_t 0.168262822 0.1578579657 0.1000953133 sigma_r_deg 13.29278334 11.44688938 4.644450197
 
 sigma_t are the x y z translation std-devs in the map's (scale-free) unit, sigma_r_deg the rotation
 std-devs about x y z in degrees, in the camera axes, relative to the gauge (``dba-covariance``'s
