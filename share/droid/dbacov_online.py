@@ -109,7 +109,10 @@ def install(hook, frontend_class=None):
     class. The hook's own failures never propagate (KeyframeSigmaPrinter catches them; any other
     hook is guarded here too)."""
     if frontend_class is None:
-        from droid_frontend import DroidFrontend as frontend_class  # DROID-SLAM's droid_slam/
+        try:  # DROID-SLAM's droid_slam/ on sys.path, as its demo.py puts it
+            from droid_frontend import DroidFrontend as frontend_class
+        except ImportError:  # droid_slam installed as a package
+            from droid_slam.droid_frontend import DroidFrontend as frontend_class
     names = ("_update", f"_{frontend_class.__name__.lstrip('_')}__update")  # __update, mangled
     name = next((n for n in names if n in vars(frontend_class)), None)
     if name is None:
@@ -141,7 +144,8 @@ def main(argv=None):
     p.add_argument("--gauge")
     p.add_argument("--self-calibrate", action="store_true")
     p.add_argument("--fps", type=float,
-                   help="camera frame rate: prints the keyframe time tstamp / fps")
+                   help="rate of the frames DROID is fed (after its --stride): prints the "
+                        "keyframe time tstamp / fps")
     p.add_argument("--digits", type=int, default=10)
     o = p.parse_args(ours)
     if not script:
