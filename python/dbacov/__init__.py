@@ -7,6 +7,11 @@
     cov.marginal(k), cov.joint(a, b), cov.relative(a, b)   # numpy, tangent [rho; phi]
     cov.marginals()                                   # (K, 6, 6)
     cov.inverse_depth_sigma(k)                        # (H, W)
+    cov.summary()                                     # one line (full=True: every field)
+    cov = dbacov.Covariance(snap, self_calibrate=True)  # --self-calibrate [--self-calibrate-method]
+    cov.self_calibration                              # method, per-edge inflations, ... (a dict)
+    cov.write_pose_rawlog("poses.rawlog", fps=20)     # dba-covariance -o (through the MRPT bridge)
+    dbacov.write_pose_rawlog("poses.rawlog", [cov1, cov2], emit="final")
     snap = dbacov.from_droid(video, graph)            # DROID's DepthVideo and FactorGraph
 
 Arrays may be NumPy arrays or torch tensors (any device: read through .detach().cpu()); NumPy
@@ -15,15 +20,18 @@ C-contiguous, are read in place. Errors are dbacov.InputError (a ValueError) and
 dbacov.NumericalError (an ArithmeticError) with the messages of the command-line tools.
 """
 
+import os
+
 import numpy as np
 
 from . import _droid
 from ._dbacov import Covariance as _Covariance
 from ._dbacov import InputError, NumericalError
 from ._dbacov import Snapshot as _Snapshot
-from ._dbacov import load
+from ._dbacov import _write_pose_rawlog, load
 
-__all__ = ["load", "Snapshot", "Covariance", "from_droid", "InputError", "NumericalError"]
+__all__ = ["load", "Snapshot", "Covariance", "from_droid", "write_pose_rawlog", "InputError",
+           "NumericalError"]
 
 _DTYPES = {"poses": np.float64, "disps": np.float32, "intrinsics": np.float64, "ii": np.int64,
            "jj": np.int64, "target": np.float32, "weight": np.float32, "tstamp": np.float64,
@@ -59,10 +67,37 @@ def Covariance(snapshot, preset="droid", **options):
     """The covariance engine on `snapshot` (a Snapshot or a path). Keywords mirror dba-covariance:
     weight_scale, gauge ("two-pose" | "minimal" | "droid"), gauge_sigma_rot, gauge_sigma_trans,
     near, far, min_depth_ratio, sensor_depth_weight, solver ("sparse" | "dense"), ordering,
-    threads; depth_sigma=True keeps what inverse_depth_sigma needs."""
+    threads; depth_sigma=True keeps what inverse_depth_sigma needs. Self-calibration as
+    --self-calibrate: self_calibrate=True, self_calibrate_method ("score" (default) | "vce" |
+    "autocorr" | "sandwich"; implies self_calibrate), self_calibrate_iterations (1..20);
+    converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one).
+    The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,
+    edges: one array per --edge-csv column)."""
     if not isinstance(snapshot, _Snapshot):
         snapshot = load(str(snapshot))
     return _Covariance(snapshot, preset=preset, **options)
+
+
+def write_pose_rawlog(path, covariances, emit="latest", label="DBA_COVARIANCE", fps=None,
+                      start_time=0.0):
+    """dba-covariance -o over several snapshots' covariances (in input order): a gz-compressed
+    rawlog of CObservationRobotPose (CPose3DPDFGaussian), emit "latest" | "all" | "final", the
+    keyframe times from the snapshots' timestamps_s or, without them, start_time + tstamp / fps.
+    Written atomically through the MRPT bridge (libdbacov_mrpt.so, loaded on the first call); the
+    same bytes as the command-line tool. Errors: dbacov.InputError with the CLI's messages."""
+    if isinstance(covariances, _Covariance):
+        covariances = [covariances]
+    _write_pose_rawlog(os.fspath(path), list(covariances), emit=emit, label=label,
+                       fps=None if fps is None else float(fps), start_time=float(start_time))
+
+
+def _write_pose_rawlog_method(self, path, **options):
+    _write_one(self, os.fspath(path), **options)
+
+
+_write_one = _Covariance.write_pose_rawlog
+_write_pose_rawlog_method.__doc__ = _write_one.__doc__
+_Covariance.write_pose_rawlog = _write_pose_rawlog_method  # paths as str or os.PathLike
 
 
 def from_droid(video, graph, include_inactive=True, record=None, image_times_s=None,

@@ -17,15 +17,21 @@
 #include <optional>
 #include <string>
 
+#include "dbacov/app/outputs.h"
+#include "dbacov/app/self_calibration_options.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/errors.h"
+#include "dbacov/core/keyframe_times.h"
 #include "dbacov/core/options.h"
+#include "dbacov/core/self_calibration.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/core/threads.h"
 #include "dbacov/io/snapshot_npz.h"
+#include "dbacov/sim/dba_solver.h"
 
 namespace py = pybind11;
 using namespace dbacov;
+using dbacov::app::SelfCalibrationAppOptions;
 
 namespace {
 
@@ -114,7 +120,116 @@ struct PyCovariance {
   std::unique_ptr<DbaCovariance> cov;
   DbaOptions options;
   bool depth_sigma = true;
+  std::optional<SelfCalibration> calibration;  ///< self_calibrate=True
+  std::optional<DbaSolverSummary> solve;       ///< converge=True
 };
+
+/// "<source> (snapshot N)": how dba-covariance names a snapshot in its error lines.
+std::string snapshotName(const Snapshot& s) {
+  return s.source + " (snapshot " + std::to_string(s.label()) + ")";
+}
+
+/// The self-calibration keywords into the core options by the apps' own builder
+/// (SelfCalibrationAppOptions::options(): the method's name through the enum table, the same
+/// message for an unknown one). A method implies self_calibrate, as --self-calibrate-method does.
+SelfCalibrationAppOptions selfCalibrationOptions(bool self_calibrate,
+                                                 std::optional<std::string> method,
+                                                 std::optional<int> iterations, bool converge) {
+  SelfCalibrationAppOptions o;
+  o.enabled = self_calibrate || method.has_value();
+  if (method) o.method = *method;
+  if (iterations) {
+    if (*iterations < 1 || *iterations > 20)  // dba-covariance's CLI::Range(1, 20)
+      throw std::invalid_argument("self_calibrate_iterations: " + std::to_string(*iterations) +
+                                  " is not in 1..20");
+    o.iterations = *iterations;
+  }
+  o.converge = converge;
+  o.options();  // throws std::invalid_argument for an unknown method
+  return o;
+}
+
+py::dict calibrationDict(const SelfCalibration& cal) {
+  py::dict d;
+  d["method"] = std::string(toString(cal.method));
+  d["global_scale"] = cal.global_scale;
+  d["passes"] = cal.passes;
+  py::dict opt;
+  opt["gradient_norm"] = cal.optimum.gradient_norm;
+  opt["step_sigma"] = cal.optimum.step_sigma;
+  opt["max_step_sigma"] = cal.optimum.max_step_sigma;
+  opt["free_dof"] = cal.optimum.free_dof;
+  opt["unreliable"] = cal.optimum.unreliable();
+  d["optimum"] = opt;
+  // One array per EdgeCalibration field, in edge order (the columns of --edge-csv).
+  const std::size_t n = cal.edges.size();
+  auto column = [&](auto get) {
+    using T = decltype(get(cal.edges.front()));
+    py::array_t<T> a(static_cast<py::ssize_t>(n));
+    T* p = a.mutable_data();
+    for (std::size_t e = 0; e < n; ++e) p[e] = get(cal.edges[e]);
+    return a;
+  };
+  py::dict edges;
+  if (n > 0) {
+    edges["edge"] = column([](const EdgeCalibration& e) { return std::int64_t(e.edge); });
+    edges["i"] = column([](const EdgeCalibration& e) { return std::int64_t(e.i); });
+    edges["j"] = column([](const EdgeCalibration& e) { return std::int64_t(e.j); });
+    edges["pixels"] = column([](const EdgeCalibration& e) { return std::int64_t(e.pixels); });
+    edges["rows"] = column([](const EdgeCalibration& e) { return std::int64_t(e.rows); });
+    edges["residual_rms"] = column([](const EdgeCalibration& e) { return e.residual_rms; });
+    edges["chi2"] = column([](const EdgeCalibration& e) { return e.chi2; });
+    edges["redundancy"] = column([](const EdgeCalibration& e) { return e.redundancy; });
+    edges["vce_scale"] = column([](const EdgeCalibration& e) { return e.vce_scale; });
+    edges["correlation"] = column([](const EdgeCalibration& e) { return e.correlation; });
+    edges["inflation"] = column([](const EdgeCalibration& e) { return e.inflation; });
+    edges["effective_pixels"] = column([](const EdgeCalibration& e) { return e.effective_pixels; });
+  }
+  d["edges"] = edges;
+  return d;
+}
+
+/// dba-covariance -o through its own sink (app::PoseRawlogSink: the same records, order and
+/// file, written atomically through the MRPT bridge, which is loaded here on first use).
+/// `times[c]` replaces the keyframe times of covariance c; else `fps` derives them as --fps does.
+/// Errors name the snapshot as the CLI's error lines do.
+void writePoseRawlog(const std::string& path, const std::vector<const PyCovariance*>& covs,
+                     const std::vector<std::optional<std::vector<double>>>& times,
+                     const std::string& emit, const std::string& label, std::optional<double> fps,
+                     double start_time) {
+  const auto mode = parseEnum<app::EmitMode>(emit);
+  if (fps) checkFps(*fps, "fps");
+  app::PoseRawlogSink sink(path, label, mode);
+  for (std::size_t c = 0; c < covs.size(); ++c) {
+    const PyCovariance& pc = *covs[c];
+    const Snapshot* s = pc.snapshot.get();
+    try {
+      std::optional<Snapshot> timed;  // a copy only when the times change
+      const bool replace = c < times.size() && times[c].has_value();
+      if (replace || (fps && !s->timestamps_s)) {
+        timed = *s;
+        if (replace) {
+          if (times[c]->size() != static_cast<std::size_t>(s->numKeyframes()))
+            throw InputError("times has " + std::to_string(times[c]->size()) +
+                             " values, the snapshot has " + std::to_string(s->numKeyframes()) +
+                             " keyframes");
+          timed->timestamps_s = *times[c];
+        } else {
+          deriveKeyframeTimes(*timed, *fps, start_time);
+        }
+      }
+      const Snapshot& t = timed ? *timed : *s;
+      sink.check(t);
+      sink.verify(t, *pc.cov);
+      sink.add(t, *pc.cov);
+    } catch (const InputError& e) {
+      throw InputError(snapshotName(*s) + ": " + e.what());
+    } catch (const std::domain_error& e) {
+      throw std::domain_error(snapshotName(*s) + ": " + e.what());
+    }
+  }
+  sink.commit();
+}
 
 /// The keywords into DbaOptions by the one builder that dba-covariance's flags use
 /// (DbaOptionOverrides::resolve): the same names, defaults and messages.
@@ -234,24 +349,56 @@ PYBIND11_MODULE(_dbacov, m) {
       },
       py::arg("snapshot"), py::arg("iterations"), py::call_guard<py::gil_scoped_release>());
 
-  py::class_<PyCovariance>(m, "Covariance")
+  py::class_<PyCovariance> covariance(m, "Covariance");
+  m.def(
+      "_write_pose_rawlog",
+      [](const std::string& path, const std::vector<const PyCovariance*>& covs,
+         const std::string& emit, const std::string& label, std::optional<double> fps,
+         double start_time) {
+        py::gil_scoped_release release;
+        writePoseRawlog(path, covs, {}, emit, label, fps, start_time);
+      },
+      py::arg("path"), py::arg("covariances"), py::kw_only(), py::arg("emit") = "latest",
+      py::arg("label") = "DBA_COVARIANCE", py::arg("fps") = py::none(),
+      py::arg("start_time") = 0.0);
+  m.def("_mrpt_bridge_loaded", &mrpt_bridge::mrptBridgeLoaded);
+
+  covariance
       .def(py::init([](std::shared_ptr<Snapshot> snap, const std::string& preset,
                        std::optional<double> weight_scale, std::optional<std::string> gauge,
                        std::optional<double> gauge_sigma_rot,
                        std::optional<double> gauge_sigma_trans, std::optional<double> near,
                        std::optional<double> far, std::optional<double> min_depth_ratio,
                        std::optional<double> sensor_depth_weight, const std::string& solver,
-                       const std::string& ordering, std::size_t threads, bool depth_sigma) {
+                       const std::string& ordering, std::size_t threads, bool depth_sigma,
+                       bool self_calibrate, std::optional<std::string> self_calibrate_method,
+                       std::optional<int> self_calibrate_iterations, bool converge) {
              auto c = std::make_unique<PyCovariance>();
              c->options =
                  engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans,
                                near, far, min_depth_ratio, sensor_depth_weight);
              const CovarianceOptions so = solverOptions(solver, ordering, depth_sigma);
-             c->snapshot = std::move(snap);
+             const SelfCalibrationAppOptions sc = selfCalibrationOptions(
+                 self_calibrate, self_calibrate_method, self_calibrate_iterations, converge);
              c->depth_sigma = depth_sigma;
              py::gil_scoped_release release;
              const ThreadLimit limit(threads);
-             c->cov = std::make_unique<DbaCovariance>(*c->snapshot, c->options, so);
+             // As dba-covariance does per snapshot (SelfCalibrationRun::covariance): --converge
+             // solves the snapshot's DBA first (on a copy here: the caller's snapshot is kept),
+             // --self-calibrate then calibrates on that state.
+             if (sc.converge) {
+               auto solved = std::make_shared<Snapshot>(*snap);
+               c->solve = solveDba(*solved, c->options);
+               snap = std::move(solved);
+             }
+             c->snapshot = snap;
+             if (sc.enabled) {
+               c->calibration = selfCalibrate(*c->snapshot, c->options, sc.options());
+               c->cov = std::make_unique<DbaCovariance>(
+                   selfCalibratedCovariance(*c->snapshot, c->options, so, *c->calibration));
+             } else {
+               c->cov = std::make_unique<DbaCovariance>(*c->snapshot, c->options, so);
+             }
              return c;
            }),
            py::arg("snapshot"), py::kw_only(), py::arg("preset") = "droid",
@@ -260,7 +407,40 @@ PYBIND11_MODULE(_dbacov, m) {
            py::arg("near") = py::none(), py::arg("far") = py::none(),
            py::arg("min_depth_ratio") = py::none(), py::arg("sensor_depth_weight") = py::none(),
            py::arg("solver") = "sparse", py::arg("ordering") = "auto", py::arg("threads") = 0,
-           py::arg("depth_sigma") = true)
+           py::arg("depth_sigma") = true, py::arg("self_calibrate") = false,
+           py::arg("self_calibrate_method") = py::none(),
+           py::arg("self_calibrate_iterations") = py::none(), py::arg("converge") = false)
+      .def_property_readonly("self_calibration",
+                             [](const PyCovariance& c) -> py::object {
+                               if (!c.calibration) return py::none();
+                               return calibrationDict(*c.calibration);
+                             })
+      .def_property_readonly("converged",
+                             [](const PyCovariance& c) -> py::object {
+                               if (!c.solve) return py::none();
+                               return py::bool_(c.solve->converged());
+                             })
+      .def(
+          "summary",
+          [](const PyCovariance& c, bool full) {
+            return full ? c.cov->summary().full() : c.cov->summary().brief();
+          },
+          py::arg("full") = false,
+          "What the computation did (solver, ordering, nnz(L), pixels, time per stage, "
+          "self-calibration): one line, or every field with full=True")
+      .def(
+          "write_pose_rawlog",
+          [](const PyCovariance& c, const std::string& path, const std::string& emit,
+             const std::string& label, std::optional<double> fps, double start_time,
+             std::optional<std::vector<double>> times) {
+            py::gil_scoped_release release;
+            writePoseRawlog(path, {&c}, {times}, emit, label, fps, start_time);
+          },
+          py::arg("path"), py::kw_only(), py::arg("emit") = "latest",
+          py::arg("label") = "DBA_COVARIANCE", py::arg("fps") = py::none(),
+          py::arg("start_time") = 0.0, py::arg("times") = py::none(),
+          "dba-covariance -o for this snapshot: a gz rawlog of CObservationRobotPose, written "
+          "atomically through the MRPT bridge")
       .def_property_readonly("keyframes", [](const PyCovariance& c) { return c.cov->keyframes(); })
       .def_property_readonly("gauge_keyframes",
                              [](const PyCovariance& c) { return c.cov->gaugeKeyframes(); })

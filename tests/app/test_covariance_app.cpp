@@ -229,6 +229,18 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
     EXPECT_TRUE(contains(r.err, "--help")) << r.err;
     EXPECT_FALSE(std::filesystem::exists(out));
   }
+  // An unknown enum name fails with the enum table's message (as the library and the Python
+  // keywords give it), after the flag's name.
+  for (const auto& [args, message] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"-i", in, "--csv", out, "--gauge", "three-pose"},
+            "--gauge: unknown gauge 'three-pose', expected two-pose, minimal or droid"},
+           {{"-i", in, "--csv", out, "--self-calibrate-method", "bogus"},
+            "--self-calibrate-method: unknown self-calibration method 'bogus', expected score, "
+            "vce, autocorr or sandwich"}}) {
+    const AppResult r = run(args);
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_TRUE(contains(r.err, "dba-covariance: " + message + "\n")) << r.err;
+  }
 }
 
 TEST(CovarianceApp, MissingInputsFailWithoutTouchingTheOutput) {

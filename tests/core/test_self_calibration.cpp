@@ -232,6 +232,11 @@ TEST(SelfCalibration, WrongWeightScaleIsCorrected) {
       EXPECT_NEAR(medianInflation(cal), 4.0, 0.4);
     }
     const DbaCovariance calib = selfCalibratedCovariance(sim.snapshot, wrong, {}, cal);
+    // The summary says which self-calibration the covariance comes from.
+    EXPECT_EQ(calib.summary().self_calibration.method, toString(m));
+    EXPECT_EQ(calib.summary().self_calibration.edge_factor, cal.inflations());
+    EXPECT_NE(calib.summary().brief().find(std::string("self-calibrated (") + toString(m) + ")"),
+              std::string::npos);
     double ratio = 0;
     int count = 0;
     for (int k : truth.keyframes()) {

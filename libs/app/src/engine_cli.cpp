@@ -3,8 +3,27 @@
 #include <CLI/CLI.hpp>
 
 #include "dbacov/app/outputs.h"
+#include "dbacov/core/self_calibration.h"
 
 namespace dbacov::app::detail {
+
+template <class E>
+CLI::Validator enumValidator() {
+  // The message of parseEnum (the enum table's "unknown <what> 'x', expected a, b or c"), as the
+  // library and the Python module report it; the help shows the names as CLI::IsMember did.
+  std::string names;
+  for (const std::string& n : enumNames<E>()) names += (names.empty() ? "" : ",") + n;
+  return CLI::Validator(
+      [](std::string& name) -> std::string {
+        try {
+          parseEnum<E>(name);
+          return {};
+        } catch (const std::invalid_argument& e) {
+          return e.what();
+        }
+      },
+      "{" + names + "}");
+}
 
 template <class E>
 CLI::Option* addEnumOption(CLI::App& cli, const std::string& flags, E& value,
@@ -12,7 +31,7 @@ CLI::Option* addEnumOption(CLI::App& cli, const std::string& flags, E& value,
   return cli
       .add_option_function<std::string>(
           flags, [&value](const std::string& name) { value = parseEnum<E>(name); }, description)
-      ->check(CLI::IsMember(enumNames<E>()));
+      ->check(enumValidator<E>());
 }
 
 template <class E>
@@ -21,9 +40,10 @@ CLI::Option* addEnumOption(CLI::App& cli, const std::string& flags, std::optiona
   return cli
       .add_option_function<std::string>(
           flags, [&value](const std::string& name) { value = parseEnum<E>(name); }, description)
-      ->check(CLI::IsMember(enumNames<E>()));
+      ->check(enumValidator<E>());
 }
 
+template CLI::Validator enumValidator<SelfCalibrationMethod>();
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, Preset&, const std::string&);
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, SolverKind&, const std::string&);
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, Ordering&, const std::string&);

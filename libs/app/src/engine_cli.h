@@ -11,6 +11,7 @@
 namespace CLI {
 class App;
 class Option;
+class Validator;
 }  // namespace CLI
 
 namespace dbacov::app::detail {
@@ -26,6 +27,11 @@ void addCovarianceOptions(CLI::App& cli, CovarianceOptions& o);
 /// value means in the app (e.g. "the preset's: droid 0.001, paper 0.1").
 CLI::Option* addWeightScaleOption(CLI::App& cli, std::optional<double>& value,
                                   const std::string& default_text);
+
+/// Accepts the names of enum E (enum_names.h); an other name fails with parseEnum's message, the
+/// one the library and the Python module give ("unknown gauge 'x', expected two-pose, ...").
+template <class E>
+CLI::Validator enumValidator();
 
 /// An option whose text is one of the names of enum E (enum_names.h), stored into `value`.
 template <class E>

@@ -8,6 +8,7 @@
 
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/dba_solver.h"
+#include "engine_cli.h"
 
 namespace dbacov::app {
 
@@ -27,7 +28,7 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
                "and inflate its pixel information accordingly (no ground truth)");
   cli.add_option("--self-calibrate-method", o.method,
                  "score (default), vce, autocorr or sandwich; implies --self-calibrate")
-      ->check(CLI::IsMember(enumNames<SelfCalibrationMethod>()))
+      ->check(enumValidator<SelfCalibrationMethod>())
       ->each([&o](const std::string&) { o.enabled = true; });
   cli.add_option("--self-calibrate-iterations", o.iterations,
                  "Reweighting passes of vce/score/autocorr (default 1)")

@@ -7,6 +7,7 @@
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "dbacov/core/conditioning.h"
 #include "dbacov/core/gauge.h"
@@ -266,6 +267,10 @@ const LinearizationStats& DbaCovariance::stats() const {
 
 const CovarianceSummary& DbaCovariance::summary() const {
   return impl_->summary;
+}
+
+void DbaCovariance::setSelfCalibrationSummary(SelfCalibrationSummary calibration) {
+  impl_->summary.self_calibration = std::move(calibration);
 }
 
 }  // namespace dbacov

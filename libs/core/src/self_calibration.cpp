@@ -437,12 +437,19 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
 DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
                                        const CovarianceOptions& solver,
                                        const SelfCalibration& cal) {
+  // summary() says which self-calibration the covariance is the result of (it used to say
+  // "none": nothing filled it).
+  SelfCalibrationSummary summary{toString(cal.method), cal.inflations()};
   if (cal.reduced_covariance) {
     CovarianceOptions so = solver;
     so.reduced_covariance = cal.reduced_covariance;
-    return DbaCovariance(s, o, so);
+    DbaCovariance cov(s, o, so);
+    cov.setSelfCalibrationSummary(std::move(summary));
+    return cov;
   }
-  return DbaCovariance(inflateWeights(s, cal.inflations()), o, solver);
+  DbaCovariance cov(inflateWeights(s, cal.inflations()), o, solver);
+  cov.setSelfCalibrationSummary(std::move(summary));
+  return cov;
 }
 
 OptimumDistance distanceFromOptimum(const Snapshot& s, const DbaOptions& o) {

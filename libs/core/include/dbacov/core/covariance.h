@@ -67,6 +67,9 @@ class DbaCovariance {
   const LinearizationStats& stats() const;
   /// What the computation did: solver, ordering, nnz(L), pixels, time per stage.
   const CovarianceSummary& summary() const;
+  /// Records in summary() the self-calibration whose result this covariance is
+  /// (selfCalibratedCovariance() calls it).
+  void setSelfCalibrationSummary(SelfCalibrationSummary calibration);
 
  private:
   struct Impl;

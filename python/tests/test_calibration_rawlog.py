@@ -1,0 +1,193 @@
+"""`import dbacov`: self-calibration keywords and the pose-rawlog writer, against dba-covariance.
+
+Run by ctest (python_dbacov). Self-calibrated covariances must agree with `dba-covariance
+--self-calibrate` to 1e-12, the per-edge values with its --edge-csv (printed with 6 digits), and a
+pose rawlog written from Python must hold the same bytes (after gunzip) as `dba-covariance -o`.
+"""
+
+import gzip
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import dbacov
+from conftest import cli_marginals, run_cli
+from test_dbacov import assert_agree
+
+SIMUL = os.environ.get("DBACOV_SIMUL", "")
+
+
+def edge_csv(path):
+    lines = open(path).read().splitlines()
+    head = lines[0].split(",")
+    rows = [dict(zip(head, line.split(","))) for line in lines[1:]]
+    return head, rows
+
+
+@pytest.mark.parametrize("method,iterations", [(None, None), ("score", 2), ("vce", None),
+                                               ("autocorr", None), ("sandwich", None)])
+def test_self_calibration_agrees_with_the_cli(shared_path, tmp_path, method, iterations):
+    kw = {"self_calibrate": True}
+    args = ["--self-calibrate", "--edge-csv", str(tmp_path / "edges.csv")]
+    if method:
+        kw = {"self_calibrate_method": method}  # implies self_calibrate, as the flag does
+        args += ["--self-calibrate-method", method]
+    if iterations:
+        kw["self_calibrate_iterations"] = iterations
+        args += ["--self-calibrate-iterations", str(iterations)]
+    cov = dbacov.Covariance(shared_path, **kw)
+    assert_agree(cov, cli_marginals(shared_path, tmp_path, *args))
+    cal = cov.self_calibration
+    assert cal["method"] == (method or "score")
+    assert cal["passes"] >= 1 and cal["optimum"]["free_dof"] == 48
+    assert not cal["optimum"]["unreliable"]
+    _, rows = edge_csv(tmp_path / "edges.csv")
+    edges = cal["edges"]
+    assert len(rows) == len(edges["inflation"]) == cov.snapshot.num_edges == 58
+    for key in ("i", "j", "pixels"):
+        np.testing.assert_array_equal(edges[key], [int(r[key]) for r in rows])
+    for key in ("residual_rms", "inflation", "effective_pixels", "redundancy", "vce_scale",
+                "correlation"):
+        np.testing.assert_allclose(edges[key], [float(r[key]) for r in rows], rtol=1e-5,
+                                   atol=0, err_msg=key)
+    assert {r["method"] for r in rows} == {cal["method"]}
+    assert f"self-calibrated ({cal['method']})" in cov.summary()
+    assert f"self-calibration         {cal['method']}" in cov.summary(full=True)
+
+
+def test_without_self_calibration_nothing_changes(shared_path, tmp_path):
+    cov = dbacov.Covariance(shared_path)
+    assert cov.self_calibration is None and cov.converged is None
+    assert "self-calibrated" not in cov.summary()
+    assert cov.summary().startswith("10 keyframes, 58 edges")
+    raw = cli_marginals(shared_path, tmp_path)
+    cal = dbacov.Covariance(shared_path, self_calibrate=True)
+    k = cov.keyframes[-1]
+    assert np.trace(cal.marginal(k)) < 1e-3 * np.trace(raw[k])  # README: ~170x smaller sigma
+
+
+def test_converge_then_self_calibrate_agrees_with_the_cli(shared_path, tmp_path):
+    snap = dbacov.load(shared_path)
+    cov = dbacov.Covariance(snap, self_calibrate=True, converge=True)
+    assert cov.converged is True
+    assert cov.snapshot is not snap  # solved on a copy: the caller's snapshot is kept
+    np.testing.assert_array_equal(snap.poses, dbacov.load(shared_path).poses)
+    assert_agree(cov, cli_marginals(shared_path, tmp_path, "--self-calibrate", "--converge"))
+
+
+def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path):
+    with pytest.raises(ValueError) as e:
+        dbacov.Covariance(shared_path, self_calibrate_method="bogus")
+    assert str(e.value) == ("unknown self-calibration method 'bogus', expected score, vce, "
+                            "autocorr or sandwich")
+    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "x.csv"),
+                "--self-calibrate-method", "bogus")
+    assert r.returncode == 2
+    assert r.stderr.splitlines()[0] == ("dba-covariance: --self-calibrate-method: "
+                                        + str(e.value))
+    # every enum keyword shares its message with its flag (the one table, enum_names.h)
+    with pytest.raises(ValueError) as e:
+        dbacov.Covariance(shared_path, gauge="bogus")
+    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "x.csv"), "--gauge", "bogus")
+    assert r.stderr.splitlines()[0] == "dba-covariance: --gauge: " + str(e.value)
+    with pytest.raises(ValueError, match="self_calibrate_iterations: 0 is not in 1..20"):
+        dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_iterations=0)
+    assert not os.path.exists(tmp_path / "x.csv")
+
+
+# --- pose rawlogs -----------------------------------------------------------------------------
+
+def cli_rawlog(tmp_path, inputs, *options, name="cli.rawlog"):
+    out = tmp_path / name
+    args = []
+    for i in inputs:
+        args += ["-i", str(i)]
+    r = run_cli(*args, "-o", str(out), "-q", *options)
+    assert r.returncode == 0, r.stderr
+    return gzip.decompress(out.read_bytes())
+
+
+@pytest.mark.parametrize("emit", ["latest", "all"])
+def test_pose_rawlog_is_the_clis_byte_for_byte(shared_path, tmp_path, emit):
+    cov = dbacov.Covariance(shared_path)
+    path = tmp_path / "py.rawlog"
+    cov.write_pose_rawlog(str(path), emit=emit, fps=20, start_time=1.7e9)
+    expected = cli_rawlog(tmp_path, [shared_path], "--emit", emit, "--fps", "20",
+                          "--start-time", "1.7e9")
+    assert gzip.decompress(path.read_bytes()) == expected
+    # explicit times (what from_droid's image_times_s gives), another label, self-calibrated
+    times = 1.7e9 + cov.snapshot.tstamp / 20
+    cov.write_pose_rawlog(path, emit=emit, times=times)
+    assert gzip.decompress(path.read_bytes()) == expected
+    cal = dbacov.Covariance(shared_path, self_calibrate=True)
+    dbacov.write_pose_rawlog(path, cal, emit=emit, label="CAL", fps=20, start_time=1.7e9)
+    assert gzip.decompress(path.read_bytes()) == cli_rawlog(
+        tmp_path, [shared_path], "--emit", emit, "--fps", "20", "--start-time", "1.7e9",
+        "--label", "CAL", "--self-calibrate")
+
+
+@pytest.fixture
+def sim_dir(tmp_path):
+    if not os.path.exists(SIMUL):
+        pytest.fail(f"simul-dba not found: {SIMUL!r} (DBACOV_SIMUL)")
+    out = tmp_path / "sim"
+    r = subprocess.run([SIMUL, "-o", str(out), "--snapshots", "4", "--seed", "1",
+                        "--height", "24", "--width", "32", "-q"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+@pytest.mark.parametrize("emit", ["latest", "all", "final"])
+def test_pose_rawlog_of_a_sequence_is_the_clis(sim_dir, tmp_path, emit):
+    files = sorted(sim_dir.glob("snapshot_*.npz"))
+    covs = [dbacov.Covariance(str(f), weight_scale=4) for f in files]
+    path = tmp_path / "py.rawlog"
+    dbacov.write_pose_rawlog(path, covs, emit=emit)
+    assert gzip.decompress(path.read_bytes()) == cli_rawlog(
+        tmp_path, [sim_dir], "--emit", emit, "--weight-scale", "4")
+
+
+def test_pose_rawlog_errors_are_the_clis_and_leave_the_file(shared_path, tmp_path):
+    cov = dbacov.Covariance(shared_path)
+    path = tmp_path / "py.rawlog"
+    path.write_bytes(b"previous")
+    with pytest.raises(dbacov.InputError) as e:
+        cov.write_pose_rawlog(path)  # the shared snapshot has no times
+    r = run_cli("-i", shared_path, "-o", str(tmp_path / "cli.rawlog"))
+    assert r.returncode == 1
+    assert "dba-covariance: error: " + str(e.value) in r.stderr.splitlines()
+    assert "-o needs keyframe times" in str(e.value)
+    bad = str(tmp_path / "missing" / "dir" / "x.rawlog")
+    with pytest.raises(dbacov.InputError) as e:
+        cov.write_pose_rawlog(bad, fps=20)
+    r = run_cli("-i", shared_path, "-o", bad, "--fps", "20")
+    assert r.returncode != 0 and "dba-covariance: error: " + str(e.value) in r.stderr.splitlines()
+    with pytest.raises(dbacov.InputError, match=r"times has 3 values, the snapshot has 11"):
+        cov.write_pose_rawlog(path, times=[1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="unknown emit mode 'bogus'"):
+        cov.write_pose_rawlog(path, fps=20, emit="bogus")
+    with pytest.raises(ValueError, match="fps"):
+        cov.write_pose_rawlog(path, fps=0)
+    assert path.read_bytes() == b"previous"  # atomic: a failed write leaves the file as it was
+    assert sorted(os.listdir(tmp_path)) == ["py.rawlog"]  # and no temporary behind
+
+
+def test_mrpt_is_loaded_only_by_the_first_rawlog(shared_path, tmp_path):
+    # In a fresh interpreter: importing and computing load no MRPT library; the first rawlog
+    # loads the bridge (libdbacov_mrpt.so, found beside libdbacov_mrpt_api.so in build/lib).
+    code = f"""
+import dbacov
+def mrpt():
+    return any("libmrpt" in line for line in open("/proc/self/maps"))
+cov = dbacov.Covariance({shared_path!r})
+before = (mrpt(), dbacov._dbacov._mrpt_bridge_loaded())
+cov.write_pose_rawlog({str(tmp_path / "x.rawlog")!r}, fps=20)
+print(before, (mrpt(), dbacov._dbacov._mrpt_bridge_loaded()))
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       env=os.environ)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split("\n")[0] == "(False, False) (True, True)"
