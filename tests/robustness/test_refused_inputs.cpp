@@ -147,6 +147,10 @@ TEST(RefusedInputs, NodeTimesThatAreNotTimes) {
   for (const auto& [row, error] : std::vector<std::pair<std::string, std::string>>{
            {"1,3,-1", ":3: node 1 has the time -1 s, which MRPT cannot represent"},
            {"1,3,nan", ":3: node 1 has the time nan s, which MRPT cannot represent"},
+           {"1,3,0",
+            ":3: node 1 has the time 0 s, which MRPT reads as \"no time\" (INVALID_TIMESTAMP): "
+            "expected 0 < t <= 1e10 s since 1970; write the graph with dba-covariance "
+            "--start-time T (T > 0) or give times > 0"},
            {"1,nan,5", ":3: node 1: tstamp is not a finite number"}}) {
     SCOPED_TRACE(row);
     std::ofstream(dir.file("g.nodes.csv")) << "node,tstamp,time_s\n0,0,1000\n"
