@@ -18,7 +18,7 @@ extern "C" int DBACOV_FUZZ_ENTRY(const std::uint8_t* data, std::size_t size) {
        {GroundTruthFormat::Auto, GroundTruthFormat::Tum, GroundTruthFormat::Euroc}) {
     try {
       const GroundTruth gt = GroundTruth::load(path, f);
-      for (double t : {0.0, 1.0, 1e9, 1.7e9, 1e18})
+      for (double t : {0.0, 1.0, 1000.0, 1000.05, 1e9, 1403636579.7585554, 1.7e9, 1e18})
         if (const auto T = gt.at(t, 0.01, 1e30); T && !T->matrix().allFinite()) __builtin_trap();
     } catch (const dbacov::InputError&) {
     }

@@ -249,6 +249,24 @@ TEST(RefusedInputs, EvaluationInputsThatWouldBeScoredWrong) {
                                              "pose covariance (|entry| <= 1e100)"),
             std::string::npos)
       << r.err;
+  // An infinite quaternion entry passed the norm check and became a NaN rotation; an infinite
+  // image time was accepted (found by fuzz_ground_truth).
+  std::ofstream(dir.file("inf.tum")) << "1000 0 0 0 inf 0 0 1\n1001 0 0 0 0 0 0 1\n";
+  r = evaluate(dir.file("k.csv"), dir.file("inf.tum"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find(dir.file("inf.tum") +
+                       ":1: column 'field 5': expected a finite number, found 'inf'"),
+            std::string::npos)
+      << r.err;
+  std::ofstream(dir.file("times.txt")) << "-inf\n1000\n";
+  r = testing::runApp(app::runEvaluateApp, "dba-evaluate",
+                      {"--csv", dir.file("k.csv"), "--gt", dir.file("gt.tum"), "--image-times",
+                       dir.file("times.txt")});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find(dir.file("times.txt") +
+                       ":1: column 'time': expected a finite number, found '-inf'"),
+            std::string::npos)
+      << r.err;
   std::ofstream(dir.file("dup.tum")) << "1000 0 0 0 0 0 0 1\n1000 1 0 0 0 0 0 1\n";
   r = evaluate(dir.file("k.csv"), dir.file("dup.tum"));
   EXPECT_EQ(r.code, 1);

@@ -43,6 +43,11 @@ double number(const std::string& s, const std::string& where, const std::string&
   const double v = std::strtod(s.c_str(), &end);
   if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE || std::isnan(v))
     throw InputError(where + ": column '" + column + "': expected a number, found '" + s + "'");
+  // No value of these files is infinite: an infinite time was accepted as an image time, and an
+  // infinite quaternion entry passed the norm check and became a NaN rotation (fuzz_ground_truth).
+  if (!std::isfinite(v))
+    throw InputError(where + ": column '" + column + "': expected a finite number, found '" + s +
+                     "'");
   return v;
 }
 
