@@ -51,13 +51,13 @@ for ((first = 0; first < ${#targets[@]}; first += cores)); do
     wait "${pid[$t]}" || status=$?
     log=build-fuzz/logs/"$t".log
     runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
-    cov=$(grep -E '^#[0-9]+.*(DONE|cov:)' "$log" | tail -1 | sed -n 's/.*cov: \([0-9]*\) ft: \([0-9]*\) corp: \([^ ]*\).*/cov \1, features \2, corpus \3/p')
+    cov=$(grep -aE '^#[0-9]+.*(DONE|cov:)' "$log" | tail -1 | sed -n 's/.*cov: \([0-9]*\) ft: \([0-9]*\) corp: \([^ ]*\).*/cov \1, features \2, corpus \3/p')
     if [ "$status" -eq 0 ]; then
       echo "fuzz: $t: ${runs:-?} inputs in ${per_target} s, ${cov:-?}, no crash"
     else
       failed=1
       echo "fuzz: $t: FAILED (status $status) after ${runs:-?} inputs; log: $log" >&2
-      grep -E 'ERROR|SUMMARY|runtime error|artifact' "$log" | head -20 >&2 || true
+      grep -aE 'ERROR|SUMMARY|runtime error|artifact' "$log" | head -20 >&2 || true
       echo "fuzz: reproduce with build-fuzz/bin/fuzz_$t build-fuzz/artifacts/$t-*; once fixed, copy" \
            "the input into tests/fuzz/regressions/$t/" >&2
     fi
