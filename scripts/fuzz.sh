@@ -1,8 +1,13 @@
 #!/usr/bin/env bash
-# Fuzzes the .npz reader and the snapshot rawlog reader with libFuzzer (tests/fuzz, README
-# "Reliability"). Usage: scripts/fuzz.sh [SECONDS] [TARGET...]
-#   SECONDS  how long each target runs (default 60; CI runs 60, a longer run: scripts/fuzz.sh 3600)
-#   TARGET   npz, rawlog (default both); the targets run in parallel, one per core
+# Fuzzes the readers with libFuzzer (tests/fuzz, README "Reliability"): the .npz reader (npz), the
+# snapshot rawlog reader (rawlog), the text pose-graph reader of dba-posegraph (graph) and the
+# ground-truth readers of dba-evaluate (ground_truth).
+# Usage: scripts/fuzz.sh [SECONDS] [TARGET...]
+#   SECONDS  the fuzzing wall time in all (default 60; CI runs 60; a longer run: scripts/fuzz.sh
+#            3600). The targets run in parallel, one per core, in waves: each target gets
+#            SECONDS / waves, so 4 targets on 2 cores run in two waves of 30 s each, on 4 cores in
+#            one wave of 60 s (at least 1 s each).
+#   TARGET   npz, rawlog, graph, ground_truth (default all)
 # Builds build-fuzz/ (clang, AddressSanitizer + UndefinedBehaviorSanitizer, -fsanitize=fuzzer),
 # writes the seed corpus into build-fuzz/corpus/<target>/ (kept between runs, so longer runs build
 # on earlier ones) and prints what each target did. A crash, leak, sanitizer report, timeout or
@@ -15,7 +20,11 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 [ $# -gt 0 ] && shift
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(npz rawlog)
+[ ${#targets[@]} -gt 0 ] || targets=(npz rawlog graph ground_truth)
+cores=$(nproc)
+waves=$(( (${#targets[@]} + cores - 1) / cores ))
+per_target=$(( seconds / waves ))
+[ "$per_target" -ge 1 ] || per_target=1
 
 san="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
 CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
@@ -27,28 +36,31 @@ build-fuzz/bin/fuzz_seeds build-fuzz/corpus
 mkdir -p build-fuzz/artifacts build-fuzz/logs
 
 declare -A pid
-for t in "${targets[@]}"; do
-  # -rss_limit_mb: libFuzzer's default (2 GiB), which also limits any single allocation.
-  build-fuzz/bin/fuzz_"$t" build-fuzz/corpus/"$t" -max_total_time="$seconds" -timeout=10 \
-    -rss_limit_mb=2048 -dict=tests/fuzz/"$t".dict -artifact_prefix=build-fuzz/artifacts/"$t"- \
-    -print_final_stats=1 > build-fuzz/logs/"$t".log 2>&1 &
-  pid[$t]=$!
-done
 failed=0
-for t in "${targets[@]}"; do
-  status=0
-  wait "${pid[$t]}" || status=$?
-  log=build-fuzz/logs/"$t".log
-  runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
-  cov=$(grep -E '^#[0-9]+.*(DONE|cov:)' "$log" | tail -1 | sed -n 's/.*cov: \([0-9]*\) ft: \([0-9]*\) corp: \([^ ]*\).*/cov \1, features \2, corpus \3/p')
-  if [ "$status" -eq 0 ]; then
-    echo "fuzz: $t: ${runs:-?} inputs in ${seconds} s, ${cov:-?}, no crash"
-  else
-    failed=1
-    echo "fuzz: $t: FAILED (status $status) after ${runs:-?} inputs; log: $log" >&2
-    grep -E 'ERROR|SUMMARY|runtime error|artifact' "$log" | head -20 >&2 || true
-    echo "fuzz: reproduce with build-fuzz/bin/fuzz_$t build-fuzz/artifacts/$t-*; once fixed, copy" \
-         "the input into tests/fuzz/regressions/$t/" >&2
-  fi
+for ((first = 0; first < ${#targets[@]}; first += cores)); do
+  wave=("${targets[@]:first:cores}")
+  for t in "${wave[@]}"; do
+    # -rss_limit_mb: libFuzzer's default (2 GiB), which also limits any single allocation.
+    build-fuzz/bin/fuzz_"$t" build-fuzz/corpus/"$t" -max_total_time="$per_target" -timeout=10 \
+      -rss_limit_mb=2048 -dict=tests/fuzz/"$t".dict -artifact_prefix=build-fuzz/artifacts/"$t"- \
+      -print_final_stats=1 > build-fuzz/logs/"$t".log 2>&1 &
+    pid[$t]=$!
+  done
+  for t in "${wave[@]}"; do
+    status=0
+    wait "${pid[$t]}" || status=$?
+    log=build-fuzz/logs/"$t".log
+    runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
+    cov=$(grep -aE '^#[0-9]+.*(DONE|cov:)' "$log" | tail -1 | sed -n 's/.*cov: \([0-9]*\) ft: \([0-9]*\) corp: \([^ ]*\).*/cov \1, features \2, corpus \3/p')
+    if [ "$status" -eq 0 ]; then
+      echo "fuzz: $t: ${runs:-?} inputs in ${per_target} s, ${cov:-?}, no crash"
+    else
+      failed=1
+      echo "fuzz: $t: FAILED (status $status) after ${runs:-?} inputs; log: $log" >&2
+      grep -aE 'ERROR|SUMMARY|runtime error|artifact' "$log" | head -20 >&2 || true
+      echo "fuzz: reproduce with build-fuzz/bin/fuzz_$t build-fuzz/artifacts/$t-*; once fixed, copy" \
+           "the input into tests/fuzz/regressions/$t/" >&2
+    fi
+  done
 done
 exit "$failed"

@@ -5,7 +5,8 @@
 #   1. the suite in build/ (Release);
 #   2. the suite again under AddressSanitizer + UndefinedBehaviorSanitizer in build-asan/
 #      (-O1, assertions on, benchmarks off; any sanitizer report fails its test);
-#   3. a bounded fuzz run of the .npz and rawlog readers (scripts/fuzz.sh, 60 s per target).
+#   3. a bounded fuzz run of the .npz, rawlog, text pose-graph and ground-truth readers
+#      (scripts/fuzz.sh, 60 s of wall time in all: one target per core, in waves).
 # Extra arguments go to both ctest runs (e.g. -R Covariance). DBACOV_TEST_PASSES selects passes
 # (default "release asan fuzz"); DBACOV_FUZZ_SECONDS sets the fuzz time (default 60);
 # DBACOV_BUILD_DIR the Release build directory (default build).

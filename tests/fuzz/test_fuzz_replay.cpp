@@ -13,6 +13,8 @@
 
 extern "C" int dbacovFuzzNpz(const std::uint8_t* data, std::size_t size);
 extern "C" int dbacovFuzzRawlog(const std::uint8_t* data, std::size_t size);
+extern "C" int dbacovFuzzGraph(const std::uint8_t* data, std::size_t size);
+extern "C" int dbacovFuzzGroundTruth(const std::uint8_t* data, std::size_t size);
 
 namespace dbacov {
 namespace {
@@ -70,6 +72,46 @@ TEST(FuzzReplay, RawlogRegressions) {
     SCOPED_TRACE(file);
     const std::vector<unsigned char> bytes = readBytes(file);
     EXPECT_EQ(dbacovFuzzRawlog(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, GraphSeedsAreValidGraphs) {
+  const fuzz::Corpus seeds = fuzz::graphSeeds();
+  ASSERT_GE(seeds.size(), 3u);
+  for (const auto& [name, bytes] : seeds) {
+    SCOPED_TRACE(name);
+    int n = 0;
+    EXPECT_NO_THROW(n = fuzz::itemsInSeed("graph", name, bytes));
+    EXPECT_GE(n, 2);
+    EXPECT_EQ(dbacovFuzzGraph(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, GroundTruthSeedsAreValid) {
+  const fuzz::Corpus seeds = fuzz::groundTruthSeeds();
+  ASSERT_GE(seeds.size(), 4u);
+  for (const auto& [name, bytes] : seeds) {
+    SCOPED_TRACE(name);
+    int n = 0;
+    EXPECT_NO_THROW(n = fuzz::itemsInSeed("ground_truth", name, bytes));
+    EXPECT_GE(n, 2);
+    EXPECT_EQ(dbacovFuzzGroundTruth(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, GraphRegressions) {
+  for (const std::string& file : regressions("graph")) {
+    SCOPED_TRACE(file);
+    const std::vector<unsigned char> bytes = readBytes(file);
+    EXPECT_EQ(dbacovFuzzGraph(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, GroundTruthRegressions) {
+  for (const std::string& file : regressions("ground_truth")) {
+    SCOPED_TRACE(file);
+    const std::vector<unsigned char> bytes = readBytes(file);
+    EXPECT_EQ(dbacovFuzzGroundTruth(bytes.data(), bytes.size()), 0);
   }
 }
 

@@ -71,7 +71,7 @@ TEST(BadPoseGraph, TheGoodGraphIsOptimized) {
   testing::TempDir dir;
   mrpt_bridge::writeGraphBinary(dir.file("g.graphbin"), goodGraph());
   std::ofstream(dir.file("g.nodes.csv"))
-      << "node,tstamp,time_s\n0,0,0\n1,1,0.1\n2,2,0.2\n3,3,0.3\n";
+      << "node,tstamp,time_s\n0,0,1000\n1,1,1000.1\n2,2,1000.2\n3,3,1000.3\n";
   const testing::AppResult r =
       posegraph({"-g", dir.file("g.graphbin"), "-o", dir.file("o.rawlog"), "-q"});
   EXPECT_EQ(r.code, 0) << r.err;

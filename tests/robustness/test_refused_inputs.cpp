@@ -147,6 +147,10 @@ TEST(RefusedInputs, NodeTimesThatAreNotTimes) {
   for (const auto& [row, error] : std::vector<std::pair<std::string, std::string>>{
            {"1,3,-1", ":3: node 1 has the time -1 s, which MRPT cannot represent"},
            {"1,3,nan", ":3: node 1 has the time nan s, which MRPT cannot represent"},
+           {"1,3,0",
+            ":3: node 1 has the time 0 s, which MRPT reads as \"no time\" (INVALID_TIMESTAMP): "
+            "expected 0 < t <= 1e10 s since 1970; write the graph with dba-covariance "
+            "--start-time T (T > 0) or give times > 0"},
            {"1,nan,5", ":3: node 1: tstamp is not a finite number"}}) {
     SCOPED_TRACE(row);
     std::ofstream(dir.file("g.nodes.csv")) << "node,tstamp,time_s\n0,0,1000\n"
@@ -243,6 +247,24 @@ TEST(RefusedInputs, EvaluationInputsThatWouldBeScoredWrong) {
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find(dir.file("bad.csv") + ":3: cov_01 = 1.0000000000000001e+300 is beyond any "
                                              "pose covariance (|entry| <= 1e100)"),
+            std::string::npos)
+      << r.err;
+  // An infinite quaternion entry passed the norm check and became a NaN rotation; an infinite
+  // image time was accepted (found by fuzz_ground_truth).
+  std::ofstream(dir.file("inf.tum")) << "1000 0 0 0 inf 0 0 1\n1001 0 0 0 0 0 0 1\n";
+  r = evaluate(dir.file("k.csv"), dir.file("inf.tum"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find(dir.file("inf.tum") +
+                       ":1: column 'field 5': expected a finite number, found 'inf'"),
+            std::string::npos)
+      << r.err;
+  std::ofstream(dir.file("times.txt")) << "-inf\n1000\n";
+  r = testing::runApp(app::runEvaluateApp, "dba-evaluate",
+                      {"--csv", dir.file("k.csv"), "--gt", dir.file("gt.tum"), "--image-times",
+                       dir.file("times.txt")});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find(dir.file("times.txt") +
+                       ":1: column 'time': expected a finite number, found '-inf'"),
             std::string::npos)
       << r.err;
   std::ofstream(dir.file("dup.tum")) << "1000 0 0 0 0 0 0 1\n1000 1 0 0 0 0 0 1\n";

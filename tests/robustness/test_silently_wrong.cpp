@@ -153,7 +153,7 @@ TEST(SilentlyWrong, TimesThatMrptCannotRepresentAreRefused) {
     testing::setValue(testing::arrayOf(a, "timestamps_s"), 5, -1.0);
   });
   const std::string what =
-      " s, which MRPT cannot represent: expected 0 <= t <= 1e10 s since 1970; give such times (key "
+      " s, which MRPT cannot represent: expected 0 < t <= 1e10 s since 1970; give such times (key "
       "'timestamps_s', or --fps with --start-time)";
   const Snapshot b = io::loadSnapshotNpz(bad, 2);
   const std::string kf5 =
@@ -196,8 +196,26 @@ TEST(SilentlyWrong, TimesThatMrptCannotRepresentAreRefused) {
   EXPECT_NE(r.err.find(dir.file("u.npz") + " (snapshot 3): keyframe "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir.file("u.rawlog")));
-  // tstamp 0 at --fps 20 is time 0 (accepted); --start-time moves the times.
-  r = covariance({"-i", dir.file("u.npz"), "-o", dir.file("u.rawlog"), "--fps", "20", "-q"});
+  // tstamp 0 at --fps 20 is time 0, MRPT's "no time": refused where MRPT times are written (-o,
+  // droid2rawlog's object times), naming the keyframe and the fix; --start-time moves the times.
+  auto zero = untimed;  // its first graph keyframe at tstamp 0
+  const int kf0 = zero.graphKeyframes().front();
+  const double t0 = zero.tstamp[kf0];
+  for (double& t : zero.tstamp) t -= t0;
+  io::saveSnapshotNpz(dir.file("u.npz"), zero);
+  r = covariance({"-i", dir.file("u.npz"), "-o", dir.file("u.rawlog"), "--emit", "all", "--fps",
+                  "20", "-q", "--weight-scale", "4"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "dba-covariance: error: " + dir.file("u.npz") + " (snapshot 3): keyframe " +
+                       std::to_string(kf0) +
+                       " (tstamp 0) has the time 0 s, which MRPT reads as \"no time\" "
+                       "(INVALID_TIMESTAMP): expected 0 < t <= 1e10 s since 1970; give "
+                       "--start-time T (time = T + tstamp / fps, T > 0, e.g. the recording's "
+                       "start in seconds since 1970) or 'timestamps_s' > 0\n");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("u.rawlog")));
+  // The tables keep time 0 (time_s is not an MRPT time).
+  r = covariance({"-i", dir.file("u.npz"), "--csv", dir.file("u.csv"), "--fps", "20", "-q",
+                  "--weight-scale", "4"});
   EXPECT_EQ(r.code, 0) << r.err;
   r = covariance({"-i", dir.file("u.npz"), "-o", dir.file("u.rawlog"), "--fps", "20",
                   "--start-time", "1700000000", "-q", "--weight-scale", "4"});

@@ -21,6 +21,11 @@ std::ifstream openText(const std::string& path, const char* what) {
   return f;
 }
 
+/// What a blank line may hold: the characters that `istream >> string` skips (a line of vertical
+/// tabs split into no field at all, and an image-time list then read field 0 of none:
+/// fuzz_ground_truth).
+constexpr const char* kBlank = " \t\r\n\v\f";
+
 std::vector<std::string> split(const std::string& line, char sep) {
   std::vector<std::string> out;
   if (sep == ' ') {
@@ -43,6 +48,11 @@ double number(const std::string& s, const std::string& where, const std::string&
   const double v = std::strtod(s.c_str(), &end);
   if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE || std::isnan(v))
     throw InputError(where + ": column '" + column + "': expected a number, found '" + s + "'");
+  // No value of these files is infinite: an infinite time was accepted as an image time, and an
+  // infinite quaternion entry passed the norm check and became a NaN rotation (fuzz_ground_truth).
+  if (!std::isfinite(v))
+    throw InputError(where + ": column '" + column + "': expected a finite number, found '" + s +
+                     "'");
   return v;
 }
 
@@ -71,7 +81,7 @@ class CsvTable {
     std::string line;
     while (std::getline(f_, line)) {
       ++line_;
-      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      if (line.find_first_not_of(kBlank) == std::string::npos) continue;
       fields_ = split(line, ',');
       if (fields_.size() != width_)
         throw InputError(where() + ": " + std::to_string(fields_.size()) + " fields, expected " +
@@ -132,7 +142,7 @@ GroundTruth GroundTruth::load(const std::string& path, GroundTruthFormat format)
   std::size_t n = 0;
   for (std::string line; std::getline(f, line);) {
     ++n;
-    const std::size_t first = line.find_first_not_of(" \t\r");
+    const std::size_t first = line.find_first_not_of(kBlank);
     if (first == std::string::npos || line[first] == '#') continue;
     if (format == GroundTruthFormat::Auto)
       format =
@@ -203,7 +213,7 @@ KeyframeTimes KeyframeTimes::fromFile(const std::string& path) {
   std::size_t n = 0;
   for (std::string line; std::getline(f, line);) {
     ++n;
-    const std::size_t first = line.find_first_not_of(" \t\r");
+    const std::size_t first = line.find_first_not_of(kBlank);
     if (first == std::string::npos || line[first] == '#') continue;
     const bool csv = line.find(',') != std::string::npos;
     const auto v = split(line, csv ? ',' : ' ');

@@ -28,6 +28,11 @@ void checkNodeTimeRow(const std::string& path, int line, int node, double tstamp
                       std::optional<double> time) {
   const std::string where = path + ":" + std::to_string(line) + ": node " + std::to_string(node);
   if (!std::isfinite(tstamp)) throw InputError(where + ": tstamp is not a finite number");
+  if (time && *time == 0)  // what `dba-covariance --graph --fps F` writes for tstamp 0
+    throw InputError(where +
+                     " has the time 0 s, which MRPT reads as \"no time\" (INVALID_TIMESTAMP): "
+                     "expected 0 < t <= 1e10 s since 1970; write the graph with "
+                     "dba-covariance --start-time T (T > 0) or give times > 0");
   if (time) checkRepresentableTime(*time, where);
 }
 

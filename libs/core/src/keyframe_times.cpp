@@ -34,9 +34,15 @@ void checkDistinctTstamps(const Snapshot& s) {
 }
 
 void checkRepresentableTime(double t, const std::string& what) {
-  if (t >= 0 && t <= kMaxKeyframeTime) return;
+  if (t > 0 && t <= kMaxKeyframeTime) return;
+  if (t == 0)
+    throw InputError(what +
+                     " has the time 0 s, which MRPT reads as \"no time\" (INVALID_TIMESTAMP): "
+                     "expected 0 < t <= 1e10 s since 1970; give --start-time T (time = T + "
+                     "tstamp / fps, T > 0, e.g. the recording's start in seconds since 1970) or "
+                     "'timestamps_s' > 0");
   throw InputError(what + " has the time " + number(t) +
-                   " s, which MRPT cannot represent: expected 0 <= t <= 1e10 s since 1970; give "
+                   " s, which MRPT cannot represent: expected 0 < t <= 1e10 s since 1970; give "
                    "such times (key 'timestamps_s', or --fps with --start-time)");
 }
 

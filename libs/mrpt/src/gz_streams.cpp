@@ -28,6 +28,10 @@ constexpr std::size_t kTrailerBytes = 8;
 constexpr std::uint32_t kLastMember = 1;
 /// Largest member or uncompressed block accepted from a file (ours hold kGzBlockBytes).
 constexpr std::uint32_t kMaxMemberBytes = std::uint32_t{64} << 20;
+/// Compressed bytes read at a time in zlib mode.
+constexpr std::size_t kZlibInputBytes = std::size_t{64} << 10;
+/// Uncompressed bytes inflated ahead in zlib mode (gzread's buffer).
+constexpr std::size_t kZlibOutputBytes = std::size_t{16} << 10;
 
 std::uint32_t load32(const unsigned char* p) {
   return static_cast<std::uint32_t>(p[0]) | static_cast<std::uint32_t>(p[1]) << 8 |
@@ -97,20 +101,28 @@ uint64_t GzFileStream::Seek(int64_t, TSeekOrigin) {
 GzInputStream::GzInputStream(const std::string& path) : GzFileStream(path), path_(path) {
   struct stat st {};
   errno = 0;
-  if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
-    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd_ < 0)
-      throw InputError(name_ + ": cannot open rawlog for reading: " + systemReason(errno));
-    return;
-  }
+  const bool regular = ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
   errno = 0;
-  gz_ = gzopen(path.c_str(), "rb");
-  if (!gz_) throw InputError(name_ + ": cannot open rawlog for reading: " + systemReason(errno));
+  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);  // a FIFO or /dev/stdin will do
+  if (fd_ < 0) throw InputError(name_ + ": cannot open rawlog for reading: " + systemReason(errno));
+  if (!regular) startZlib();
 }
 
 GzInputStream::~GzInputStream() {
-  if (gz_) gzclose(gz_);
+  if (z_) inflateEnd(z_.get());
   if (fd_ >= 0) ::close(fd_);
+}
+
+void GzInputStream::startZlib() {
+  z_ = std::make_unique<z_stream>();
+  if (inflateInit2(z_.get(), 15 + 16 /* gzip */) != Z_OK) {
+    z_.reset();
+    throw std::bad_alloc();
+  }
+  input_.resize(kZlibInputBytes);
+  z_->next_in = input_.data();
+  z_->avail_in = 0;
+  mode_ = Mode::MemberStart;
 }
 
 bool GzInputStream::nextBlock() {
@@ -121,6 +133,7 @@ bool GzInputStream::nextBlock() {
   if (got < 0) throw InputError(name_ + ": read error: " + std::strerror(errno));
   std::uint32_t size = 0, flags = 0;
   if (got == static_cast<long>(kHeaderBytes) && isBlockHeader(h, &size, &flags)) {
+    compressed_ = members_ = true;
     if (size < kHeaderBytes + kTrailerBytes || size > kMaxMemberBytes)
       throw InputError(name_ + ": damaged compressed member");
     raw_.resize(size);
@@ -140,36 +153,143 @@ bool GzInputStream::nextBlock() {
     last_ = (flags & kLastMember) != 0;
     return true;
   }
-  if (got == 0) {
+  if (got == 0 && offset_ > 0) {
     // The end of the file: clean only after the member that says it is the last one (a file cut
     // between two members must not pass for a complete one).
-    if (offset_ > 0 && !last_) throw InputError(name_ + ": truncated compressed data");
-    if (offset_ > 0) return false;
+    if (!last_) throw InputError(name_ + ": truncated compressed data");
+    mode_ = Mode::End;
+    return false;
   }
-  // Not one of ours (or the rest of the file after our last member): zlib from here on.
+  // Not one of ours (or the rest of the file after our last member: another writer's member is
+  // legal, other bytes are refused there): zlib from here on.
   if (::lseek(fd_, static_cast<off_t>(offset_), SEEK_SET) < 0)
     throw InputError(name_ + ": cannot seek: " + std::strerror(errno));
-  gz_ = gzdopen(fd_, "rb");
-  if (!gz_) throw std::bad_alloc();
-  fd_ = -1;  // gz_ owns it
+  file_read_ = offset_;
+  startZlib();
   return false;
 }
 
+bool GzInputStream::fill() {
+  if (eof_) return false;
+  z_stream& z = *z_;
+  if (z.avail_in > 0 && z.next_in != input_.data())
+    std::memmove(input_.data(), z.next_in, z.avail_in);
+  z.next_in = input_.data();
+  ssize_t r = 0;
+  do {
+    r = ::read(fd_, input_.data() + z.avail_in, input_.size() - z.avail_in);
+  } while (r < 0 && errno == EINTR);
+  if (r < 0) {
+    failure_ = std::string("read error: ") + std::strerror(errno);
+    failed_ = true;
+    return false;
+  }
+  if (r == 0) eof_ = true;
+  z.avail_in += static_cast<unsigned>(r);
+  file_read_ += static_cast<uint64_t>(r);
+  return r > 0;
+}
+
+void GzInputStream::refuseTrailingBytes() {
+  z_stream& z = *z_;
+  const uint64_t at = file_read_ - z.avail_in;
+  std::string start;
+  for (unsigned i = 0; i < std::min(z.avail_in, 8u); ++i) {
+    static const char* hex = "0123456789abcdef";
+    start += std::string(i ? " " : "") + hex[z.next_in[i] >> 4] + hex[z.next_in[i] & 15];
+  }
+  uint64_t n = z.avail_in;
+  z.avail_in = 0;
+  while (fill()) {  // count them (to the end of the file)
+    n += z.avail_in;
+    z.avail_in = 0;
+  }
+  failure_ = std::to_string(n) + " byte" + (n == 1 ? "" : "s") + " at byte " + std::to_string(at) +
+             " of the file, after the last gzip member, " + (n == 1 ? "is" : "are") +
+             " not gzip data (starting " + start +
+             "): a gzip file holds only gzip members; was it appended to or damaged?";
+  failed_ = true;
+  mode_ = Mode::End;
+}
+
 size_t GzInputStream::readZlib(unsigned char* p, size_t count) {
+  z_stream& z = *z_;
   size_t done = 0;
-  while (done < count) {  // gzread takes at most INT_MAX bytes at a time
-    const unsigned chunk = static_cast<unsigned>(std::min<size_t>(count - done, INT_MAX));
-    const int n = gzread(gz_, p + done, chunk);
-    if (n < 0) return done ? done : static_cast<size_t>(-1);
-    if (n == 0) {
-      // gzread also returns 0 when the compressed data ends early (truncated file or pipe);
-      // only gzerror tells that apart from the end of the data (Z_BUF_ERROR).
-      int status = Z_OK;
-      gzerror(gz_, &status);
-      if (status != Z_OK && done == 0) return static_cast<size_t>(-1);
+  while (done < count && !failed_) {
+    if (out_at_ < out_.size()) {  // inflated ahead (see below), also after the member's end
+      const size_t n = std::min(count - done, out_.size() - out_at_);
+      std::memcpy(p + done, out_.data() + out_at_, n);
+      out_at_ += n;
+      done += n;
+      continue;
+    }
+    if (mode_ == Mode::End) break;
+    if (mode_ == Mode::MemberStart) {
+      while (z.avail_in < 2 && fill()) {
+      }
+      if (failed_) break;
+      if (z.avail_in == 0) {  // the end of the file, at a member boundary
+        mode_ = Mode::End;
+        break;
+      }
+      if (z.avail_in >= 2 && z.next_in[0] == 0x1f && z.next_in[1] == 0x8b) {
+        if (inflateReset(&z) != Z_OK) throw std::bad_alloc();
+        compressed_ = members_ = true;
+        mode_ = Mode::Member;
+      } else if (!members_) {
+        mode_ = Mode::Plain;  // not compressed: the bytes themselves
+      } else {
+        refuseTrailingBytes();
+      }
+      continue;
+    }
+    if (mode_ == Mode::Plain) {
+      if (z.avail_in == 0 && !fill()) {
+        if (!failed_) mode_ = Mode::End;
+        break;
+      }
+      const size_t n = std::min<size_t>(count - done, z.avail_in);
+      std::memcpy(p + done, z.next_in, n);
+      z.next_in += n;
+      z.avail_in -= static_cast<unsigned>(n);
+      done += n;
+      continue;
+    }
+    // Inside a member. Small reads are served from out_, inflated ahead 16 KiB at a time as zlib's
+    // gzread does, so that damage shows (as a read error) before the bytes around it are handed
+    // out; large reads are inflated in place.
+    // Compressed data that ends before its end marker is a truncated file.
+    if (z.avail_in == 0 && !fill()) {
+      failed_ = true;
       break;
     }
-    done += static_cast<size_t>(n);
+    const bool direct = count - done >= kZlibOutputBytes;
+    const unsigned room =
+        static_cast<unsigned>(direct ? std::min<size_t>(count - done, UINT_MAX) : kZlibOutputBytes);
+    if (!direct) {
+      out_.resize(kZlibOutputBytes);
+      out_at_ = 0;
+    }
+    z.next_out = direct ? p + done : out_.data();
+    z.avail_out = room;
+    int status = Z_OK;
+    do {  // fill out_ (or the caller's buffer) unless the member or the input ends first
+      status = inflate(&z, Z_NO_FLUSH);
+    } while (status == Z_OK && z.avail_out > 0 && (z.avail_in > 0 || fill()));
+    if (direct)
+      done += room - z.avail_out;
+    else
+      out_.resize(room - z.avail_out);
+    if (status == Z_STREAM_END) {
+      mode_ = Mode::MemberStart;  // CRC-32 and size checked; another member may follow
+    } else if (status != Z_OK && status != Z_BUF_ERROR) {
+      // Damaged (Z_DATA_ERROR) or out of memory: what this call inflated may already be wrong
+      // (the CRC-32 comes at the member's end), so none of it is returned, as gzread does.
+      out_.clear();
+      out_at_ = 0;
+      failed_ = true;
+      return static_cast<size_t>(-1);
+    }
   }
   return done;
 }
@@ -177,25 +297,17 @@ size_t GzInputStream::readZlib(unsigned char* p, size_t count) {
 size_t GzInputStream::Read(void* buffer, size_t count) {
   auto* p = static_cast<unsigned char*>(buffer);
   size_t done = 0;
-  while (done < count && !failed_) {
-    if (gz_) {
+  while (done < count && !failed_ && mode_ != Mode::End) {
+    if (mode_ != Mode::Blocks) {
       const size_t n = readZlib(p + done, count - done);
-      if (n == static_cast<size_t>(-1)) {
-        if (done == 0) return n;
-        break;
-      }
-      done += n;
+      if (n != static_cast<size_t>(-1)) done += n;
       break;
     }
     if (at_ == block_.size()) {
       try {
-        if (fd_ < 0 || !nextBlock()) {
-          if (!gz_) break;  // the end
-          continue;         // zlib goes on
-        }
+        nextBlock();  // false: mode_ changed (zlib, or the end)
       } catch (const InputError&) {
         failed_ = true;  // damaged or truncated: a read error, as zlib reports it
-        break;
       }
       continue;
     }

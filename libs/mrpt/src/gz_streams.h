@@ -14,19 +14,23 @@
 // (gz-compressed or plain) and never seeks. A regular file whose members carry the size subfield
 // is read member by member with libdeflate (each member inflated whole, CRC-32 and size checked);
 // anything else (other gzip writers, plain files, pipes, or the rest of a file from the first
-// member without the subfield) goes through zlib's gzread. Read() returns the bytes read, 0 at the
-// end of the data, and (size_t)-1 on a read error (damaged compressed data, or compressed data
-// that ends before its end marker: a truncated file), as CFileGZInputStream does for damaged data.
+// member without the subfield) goes through zlib's inflate, member by member. Read() returns the
+// bytes read, 0 at the end of the data, and (size_t)-1 on a read error (damaged compressed data,
+// or compressed data that ends before its end marker: a truncated file), as CFileGZInputStream
+// does for damaged data. A gzip file may hold several members (concatenation is legal), but bytes
+// after the last member that do not start another one are a read error too, explained by
+// failure(): zlib's gzread ignores such trailing garbage silently, so it is not used (issue 16).
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <mrpt/io/CStream.h>
 
-struct gzFile_s;
 struct libdeflate_compressor;
+struct z_stream_s;
 
 namespace dbacov::mrpt_bridge {
 
@@ -61,21 +65,48 @@ class GzInputStream : public GzFileStream {
   size_t Read(void* buffer, size_t count) override;
   size_t Write(const void* buffer, size_t count) override;  ///< throws std::logic_error
 
+  /// Why the last read failed, when the reason is not damaged or truncated compressed data (which
+  /// the readers report in their own words): "N bytes at byte X of the file, after the last gzip
+  /// member, are not gzip data (...)". "" otherwise.
+  const std::string& failure() const { return failure_; }
+  /// True when the file is gzip-compressed (known once the first byte has been read).
+  bool compressed() const { return compressed_; }
+
  private:
+  enum class Mode { Blocks, MemberStart, Member, Plain, End };
+
   /// Reads and inflates the next member with the size subfield into block_; false at the end of
-  /// the file or when the next member is not one (then gz_ continues from there); throws on damage.
+  /// the file or when the next member is not one (then zlib continues from there, mode_ =
+  /// MemberStart); throws on damage.
   bool nextBlock();
+  /// Switches to zlib at the current file position (mode_ = MemberStart).
+  void startZlib();
+  /// Reads more of the file after the `z_` input not yet consumed; false at the end of the file.
+  bool fill();
+  /// zlib modes: the next bytes (fewer after a failure, which sets failed_), 0 at the end, or
+  /// (size_t)-1 for damaged compressed data (then nothing of this call is returned).
   size_t readZlib(unsigned char* p, size_t count);
+  /// The bytes after the last member are not gzip data: counts them and sets failure_.
+  void refuseTrailingBytes();
 
   std::string path_;
-  int fd_ = -1;                       ///< block mode: the file, at offset_
+  int fd_ = -1;
+  Mode mode_ = Mode::Blocks;          ///< Blocks: regular files first; zlib modes after
   uint64_t offset_ = 0;               ///< compressed bytes consumed in block mode
   std::vector<unsigned char> block_;  ///< the current member's uncompressed bytes
   std::size_t at_ = 0;                ///< bytes of block_ already returned
   std::vector<unsigned char> raw_;    ///< the current member's compressed bytes
-  gzFile_s* gz_ = nullptr;            ///< zlib mode
+  std::unique_ptr<z_stream_s> z_;     ///< zlib modes: the inflater, its input in input_
+  std::vector<unsigned char> input_;  ///< zlib modes: file bytes read, from z_->next_in on unused
+  std::vector<unsigned char> out_;    ///< zlib modes: bytes inflated ahead, from out_at_ on unread
+  std::size_t out_at_ = 0;
+  uint64_t file_read_ = 0;  ///< bytes of the file read so far (block and zlib modes)
+  bool eof_ = false;        ///< zlib modes: read(2) returned 0
+  bool members_ = false;    ///< a gzip member was decoded (so the file is gzip)
+  bool compressed_ = false;
   bool failed_ = false;
   bool last_ = false;  ///< the member just read said it is the file's last
+  std::string failure_;
 };
 
 class GzOutputStream : public GzFileStream {

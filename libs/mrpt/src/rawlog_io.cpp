@@ -55,7 +55,9 @@ RawlogReader::RawlogReader(const std::string& path) : path_(path) {
   if (ec || std::filesystem::is_directory(status))
     throw InputError(path + ": cannot open rawlog for reading: " +
                      (ec ? ec.message() : std::string("it is a directory")));
-  stream_ = std::make_unique<PeekStream>(std::make_unique<GzInputStream>(path));
+  auto gz = std::make_unique<GzInputStream>(path);
+  gz_ = gz.get();
+  stream_ = std::make_unique<PeekStream>(std::move(gz));
 }
 
 RawlogReader::RawlogReader(const std::string& name, std::vector<unsigned char> bytes)
@@ -71,8 +73,52 @@ void RawlogReader::acceptOnly(std::set<std::string> class_names) {
   accepted_ = std::move(class_names);
 }
 
+namespace {
+/// Thrown with a message that names the file already (next() passes it on unchanged).
+struct CompleteMessage : InputError {
+  using InputError::InputError;
+};
+}  // namespace
+
+std::string RawlogReader::trailingBytes(const std::string& what) {
+  const std::uint64_t at = stream_->getPosition();
+  const std::size_t shown = stream_->peek(8);
+  std::string start;
+  for (std::size_t i = 0; i < shown; ++i) {
+    static const char* hex = "0123456789abcdef";
+    const unsigned char c = stream_->peeked()[i];
+    start += std::string(i ? " " : "") + hex[c >> 4] + hex[c & 15];
+  }
+  // Count them to the end (the rest of the file; in constant memory).
+  std::uint64_t n = 0;
+  std::vector<unsigned char> chunk(1 << 16);
+  bool damaged = false;
+  while (!damaged) {
+    const std::size_t got = stream_->Read(chunk.data(), chunk.size());
+    if (got == static_cast<std::size_t>(-1)) damaged = true;
+    if (got == 0 || damaged) break;
+    n += got;
+  }
+  const bool compressed = gz_ && gz_->compressed();
+  std::string m = path_ + ": " + (damaged ? "at least " : "") + std::to_string(n) + " byte" +
+                  (n == 1 ? "" : "s") + " at byte " + std::to_string(at) + " of the " +
+                  (compressed ? "uncompressed data" : "file") + ", after the last object (entry " +
+                  std::to_string(count_ - 1) + "), " + (n == 1 ? "is" : "are") +
+                  " not a rawlog object (" + what + "; starting " + start + ")";
+  if (gz_ && !gz_->failure().empty()) m += "; then " + gz_->failure();
+  return m;
+}
+
 mrpt::serialization::CSerializable::Ptr RawlogReader::readObject(bool in_frame) {
-  const std::optional<ObjectHeader> h = peekObjectHeader(*stream_);
+  std::optional<ObjectHeader> h;
+  try {
+    h = peekObjectHeader(*stream_);
+  } catch (const InputError& e) {
+    // Past the first object, bytes that do not even start an object are what follows the last
+    // one (an appended or damaged tail): say so, with where and how many.
+    if (in_frame || count_ == 0 || stream_->failed()) throw;
+    throw CompleteMessage(trailingBytes(e.what()));
+  }
   if (!h) {
     if (in_frame) throw InputError("CSensoryFrame truncated");
     return nullptr;
@@ -108,7 +154,16 @@ mrpt::serialization::CSerializable::Ptr RawlogReader::next() {
     auto obj = readObject(false);
     if (obj) ++count_;
     return obj;
+  } catch (const CompleteMessage&) {
+    throw;
   } catch (const std::exception& e) {
+    if (gz_ && !gz_->failure().empty()) {
+      // Not damaged compressed data: bytes after the last gzip member, or a failing read(2).
+      throw InputError(
+          path_ + ": " + gz_->failure() +
+          (count_ ? " (after entry " + std::to_string(count_ - 1) + ", the last complete object)"
+                  : ""));
+    }
     throw InputError(path_ + ": entry " + std::to_string(count_) +
                      " cannot be read: " + conciseMrptMessage(e.what()));
   }

@@ -3,10 +3,12 @@
 //   - A keyframe is identified by its `tstamp` (DROID's image index): --emit final, the plots and
 //     the scene merge keyframes of different snapshots by it, so within one snapshot the values
 //     must be distinct (checkDistinctTstamps, called by Snapshot::validate).
-//   - MRPT stores times as 100 ns ticks since 1601 and reads 0 as "no time": a keyframe time that
-//     goes into a rawlog or a graph must be finite and in [0, kMaxKeyframeTime] seconds since
-//     1970 (0 is accepted: it is MRPT's "no time", but DROID's first tstamp at --fps gives it)
-//     (checkRepresentableTime, called by keyframeTime()).
+//   - MRPT stores times as 100 ns ticks since 1601 and reads 0 as "no time" (INVALID_TIMESTAMP):
+//     a keyframe time that goes into a rawlog (a pose rawlog's records, a snapshot rawlog's
+//     object time) or a graph's node times must be finite and in (0, kMaxKeyframeTime] seconds
+//     since 1970 (checkRepresentableTime, called by keyframeTime()). Time 0 — DROID's first
+//     tstamp at --fps without --start-time — is refused there with the fix (--start-time); the
+//     tables (time_s columns) and the snapshot's own 'timestamps_s' array keep it.
 //   - --fps must be finite and positive, and tstamp / fps + start must give such times
 //     (checkFps, deriveKeyframeTimes).
 #pragma once
@@ -24,7 +26,8 @@ constexpr double kMaxKeyframeTime = 1e10;
 void checkDistinctTstamps(const Snapshot& s);
 
 /// Throws InputError "<what> has the time <t> s, which MRPT cannot represent: ..." unless
-/// 0 <= t <= kMaxKeyframeTime.
+/// 0 < t <= kMaxKeyframeTime ("<what> has the time 0 s, which MRPT reads as "no time" ...: give
+/// --start-time T ..." for t = 0).
 void checkRepresentableTime(double t, const std::string& what);
 
 /// Throws std::invalid_argument naming `option` unless `fps` is finite and positive (NaN, inf,

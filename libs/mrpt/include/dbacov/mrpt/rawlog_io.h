@@ -25,6 +25,7 @@ class CStream;
 
 namespace dbacov::mrpt_bridge {
 
+class GzInputStream;
 class GzOutputStream;
 class PeekStream;
 
@@ -62,9 +63,14 @@ class RawlogReader {
   /// Reads an uncompressed rawlog held in memory (`name` stands for the path in messages).
   RawlogReader(const std::string& name, std::vector<unsigned char> bytes);
   ~RawlogReader();
-  /// The next object, or nullptr at the end of the file. Throws InputError naming the file and
+  /// The next object, or nullptr at the end of the file (only at an object boundary, and for a
+  /// gz-compressed file only after its last gzip member). Throws InputError naming the file and
   /// the entry number when an object cannot be read (unknown class, truncated or corrupt data);
-  /// the reader cannot continue after that.
+  /// the reader cannot continue after that. Bytes after the last object that do not start one
+  /// (trailing garbage, which CRawlog and zlib would ignore) are refused: "<file>: N bytes at byte
+  /// X of the (uncompressed) data, after the last object (entry k), are not a rawlog object", or,
+  /// outside the compressed data, "<file>: N bytes at byte X of the file, after the last gzip
+  /// member, are not gzip data".
   mrpt::serialization::CSerializable::Ptr next();
   /// Number of objects read so far.
   std::size_t count() const { return count_; }
@@ -74,8 +80,12 @@ class RawlogReader {
 
  private:
   mrpt::serialization::CSerializable::Ptr readObject(bool in_frame);
+  /// After peekObjectHeader failed at the top level, past the first object: bytes that are not an
+  /// object follow the last one. Returns the message (it consumes the rest of the stream).
+  std::string trailingBytes(const std::string& what);
 
   std::string path_;
+  GzInputStream* gz_ = nullptr;       ///< the file's stream (inside stream_), when read from a file
   std::vector<unsigned char> bytes_;  ///< the rawlog, when read from memory
   std::unique_ptr<PeekStream> stream_;
   std::set<std::string> accepted_;
