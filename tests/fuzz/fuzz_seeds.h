@@ -24,6 +24,7 @@
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 #include "dbacov/mrpt/pose_graph_io.h"
 #include "dbacov/mrpt/rawlog_io.h"
+#include "dbacov/sim/sensor_modes.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "fixtures.h"
 
@@ -114,6 +115,13 @@ inline Corpus rawlogSeeds() {
   frame->insert(std::make_shared<CObservationDbaSnapshot>(b));
   frame->insert(std::make_shared<CObservationDbaSnapshot>(a));
   c["frame.rawlog"] = rawlogBytes({frame.get(), &a});
+  // DROID's other modes: stereo edges and rig, depth-sensor readings, t0 (record version 1).
+  CObservationDbaSnapshot m;
+  m.snapshot = seedSnapshot(3, 4, 5, 0, 4);
+  sim::addStereoEdges(m.snapshot, sim::StereoConfig{});
+  sim::addSensorDepth(m.snapshot, sim::RgbdConfig{});
+  m.snapshot.t0 = 1;
+  c["droid_modes.rawlog"] = rawlogBytes({&m});
   return c;
 }
 
