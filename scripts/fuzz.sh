@@ -30,7 +30,7 @@ san="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=
 CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
   -DDBACOV_BUILD_TESTS=OFF -DDBACOV_BUILD_BENCHMARKS=OFF -DDBACOV_BUILD_FUZZERS=ON \
   -DCMAKE_CXX_FLAGS="$san -Wno-pass-failed" -DCMAKE_EXE_LINKER_FLAGS="$san" \
-  -DCMAKE_SHARED_LINKER_FLAGS="$san" -DDBACOV_UNITY_LIBS=ON > /dev/null
+  -DCMAKE_SHARED_LINKER_FLAGS="$san" -DDBACOV_UNITY_BUILD=ON > /dev/null
 cmake --build build-fuzz -j"$(nproc)" --target fuzz_seeds "${targets[@]/#/fuzz_}"
 build-fuzz/bin/fuzz_seeds build-fuzz/corpus
 mkdir -p build-fuzz/artifacts build-fuzz/logs

@@ -32,7 +32,7 @@ if [[ " $passes " == *" asan "* ]]; then
   san="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
     -DDBACOV_BUILD_BENCHMARKS=OFF -DCMAKE_CXX_FLAGS="$san" -DCMAKE_EXE_LINKER_FLAGS="$san" \
-    -DCMAKE_SHARED_LINKER_FLAGS="$san" -DDBACOV_UNITY_LIBS=ON > /dev/null
+    -DCMAKE_SHARED_LINKER_FLAGS="$san" -DDBACOV_UNITY_BUILD=ON > /dev/null
   cmake --build build-asan -j"$(nproc)"
   report "sanitizer build" "$t"
   t=$(clock)

@@ -114,7 +114,9 @@ TEST_P(GaugeStage, EqualsTheDenseProjectionOfTheSameS) {
 
   // Hard-fixed directions have exactly zero covariance.
   for (int slot : g.gauge_slots) {
-    if (g.dimOf(slot) == 0) EXPECT_EQ(got.block(6 * slot, 6 * slot, 6, 6).norm(), 0.0);
+    if (g.dimOf(slot) == 0) {
+      EXPECT_EQ(got.block(6 * slot, 6 * slot, 6, 6).norm(), 0.0);
+    }
   }
 }
 

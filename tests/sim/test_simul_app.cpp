@@ -174,6 +174,11 @@ TEST(SimulApp, BadUsageAndFailuresAreReported) {
   r = simul({"-o", dir.path(), "--window", "9", "--keyframes", "4"});
   EXPECT_EQ(r.code, 2);
   EXPECT_TRUE(contains(r.err, "window")) << r.err;
+  // An unknown flow estimator, before anything is written (this test program registers none).
+  r = simul({"-o", dir.file("flow"), "--flow", "bogus"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_TRUE(contains(r.err, "flow source 'bogus' (--flow, flow.source)")) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("flow")));
   // An output that cannot be created: exit 1.
   { std::ofstream f(dir.file("file")); }
   r = simul({"-o", dir.file("file") + "/sub", "--height", "8", "--width", "10", "--snapshots", "1",

@@ -62,7 +62,7 @@ std::unique_ptr<FlowEstimator> makeFlowEstimator(const std::string& name) {
     for (const std::string& n : registeredFlowEstimators())
       known += (known.empty() ? "" : ", ") + n;
     throw std::invalid_argument(
-        "flow source '" + name + "' is not available here: " +
+        "flow source '" + name + "' (--flow, flow.source) is not available here: " +
         (known.empty() ? std::string("this program has no optical flow estimator (simul-dba and "
                                      "dba-evaluate have OpenCV's dis and farneback)")
                        : "expected model or one of " + known));

@@ -165,6 +165,8 @@ DbaOptions ScenarioConfig::engineOptions() const {
 
 Scenario::Scenario(ScenarioConfig config) : config_(std::move(config)) {
   config_.validate();
+  // An unknown flow estimator is a configuration error, found before anything is simulated.
+  if (!config_.flow.isModel()) makeFlowEstimator(config_.flow.source);
   K_ = config_.camera.intrinsics();
   const int K = config_.trajectory.num_keyframes, H = config_.camera.H, W = config_.camera.W;
   for (int k = 0; k < K; ++k) {
