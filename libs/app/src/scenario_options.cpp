@@ -8,7 +8,6 @@
 #include <CLI/CLI.hpp>
 
 #include "dbacov/core/keyframe_times.h"
-#include "dbacov/sim/image_flow.h"
 #include "dbacov/sim/scenario_json.h"
 #include "dbacov/sim/scenario_schema.h"
 
@@ -88,8 +87,6 @@ sim::ScenarioConfig ScenarioOptions::resolve() const {
   if (no_solve) c.solve = false;
   if (given.count("--fps")) checkFps(c.time.fps);
   c.validate();
-  // An unknown --flow estimator is a usage error too (the programs register theirs in main).
-  if (!c.flow.isModel()) sim::makeFlowEstimator(c.flow.source);
   return c;
 }
 

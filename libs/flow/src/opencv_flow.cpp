@@ -45,18 +45,6 @@ sim::FlowField fromMat(const cv::Mat& flow) {
   return f;
 }
 
-/// Bilinear sample of a CV_32FC2 field, clamped to its border.
-cv::Point2f bilinear(const cv::Mat& f, float x, float y) {
-  x = std::clamp(x, 0.0f, f.cols - 1.0f);
-  y = std::clamp(y, 0.0f, f.rows - 1.0f);
-  const int x0 = std::min(static_cast<int>(x), std::max(f.cols - 2, 0));
-  const int y0 = std::min(static_cast<int>(y), std::max(f.rows - 2, 0));
-  const int x1 = std::min(x0 + 1, f.cols - 1), y1 = std::min(y0 + 1, f.rows - 1);
-  const float ax = x - x0, ay = y - y0;
-  return (1 - ay) * ((1 - ax) * f.at<cv::Point2f>(y0, x0) + ax * f.at<cv::Point2f>(y0, x1)) +
-         ay * ((1 - ax) * f.at<cv::Point2f>(y1, x0) + ax * f.at<cv::Point2f>(y1, x1));
-}
-
 class DisFlow final : public sim::FlowEstimator {
  public:
   // OpenCV 4.6's DIS takes no initial flow: `to` is warped by the initial flow, DIS finds the
@@ -78,7 +66,9 @@ class DisFlow final : public sim::FlowEstimator {
     for (int y = 0; y < r.rows; ++y)
       for (int x = 0; x < r.cols; ++x) {
         const cv::Point2f d = r.at<cv::Point2f>(y, x);
-        flow.at<cv::Point2f>(y, x) = d + bilinear(f0, x + d.x, y + d.y);
+        const Eigen::Vector2d f = sim::sampleFlow(initial, x + d.x, y + d.y);
+        flow.at<cv::Point2f>(y, x) =
+            d + cv::Point2f(static_cast<float>(f.x()), static_cast<float>(f.y()));
       }
     return fromMat(flow);
   }

@@ -20,20 +20,22 @@ Registry& registry() {
   return r;
 }
 
-/// Bilinear sample of a field at (x, y), clamped to the image.
-float bilinear(const std::vector<float>& f, int H, int W, double x, double y) {
-  x = std::clamp(x, 0.0, W - 1.0);
-  y = std::clamp(y, 0.0, H - 1.0);
-  const int x0 = std::min(static_cast<int>(x), W - 2 < 0 ? 0 : W - 2);
-  const int y0 = std::min(static_cast<int>(y), H - 2 < 0 ? 0 : H - 2);
-  const int x1 = std::min(x0 + 1, W - 1), y1 = std::min(y0 + 1, H - 1);
-  const double ax = x - x0, ay = y - y0;
-  auto at = [&](int xx, int yy) { return f[static_cast<std::size_t>(yy) * W + xx]; };
-  return static_cast<float>((1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x1, y0)) +
-                            ay * ((1 - ax) * at(x0, y1) + ax * at(x1, y1)));
-}
-
 }  // namespace
+
+Eigen::Vector2d sampleFlow(const FlowField& f, double x, double y) {
+  x = std::clamp(x, 0.0, f.W - 1.0);
+  y = std::clamp(y, 0.0, f.H - 1.0);
+  const int x0 = std::min(static_cast<int>(x), std::max(f.W - 2, 0));
+  const int y0 = std::min(static_cast<int>(y), std::max(f.H - 2, 0));
+  const int x1 = std::min(x0 + 1, f.W - 1), y1 = std::min(y0 + 1, f.H - 1);
+  const double ax = x - x0, ay = y - y0;
+  auto at = [&](int xx, int yy) {
+    const std::size_t p = static_cast<std::size_t>(yy) * f.W + xx;
+    return Eigen::Vector2d(f.u[p], f.v[p]);
+  };
+  return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x1, y0)) +
+         ay * ((1 - ax) * at(x0, y1) + ax * at(x1, y1));
+}
 
 void registerFlowEstimator(const std::string& name, FlowEstimatorFactory factory) {
   Registry& r = registry();
@@ -167,14 +169,12 @@ void flowTargets(const FlowField& fw, const FlowField& bw, int H, int W, const I
     for (int u = 0; u < W; ++u) {
       const std::size_t p = static_cast<std::size_t>(v) * W + u;
       const double x = s * u + half, y = s * v + half;
-      const double fu = bilinear(fw.u, fw.H, fw.W, x, y), fv = bilinear(fw.v, fw.H, fw.W, x, y);
-      const double x2 = x + fu, y2 = y + fv;
+      const Eigen::Vector2d f = sampleFlow(fw, x, y);
+      const double fu = f.x(), fv = f.y(), x2 = x + fu, y2 = y + fv;
       float w = 0.0f;
       if (std::isfinite(fu) && std::isfinite(fv) && x2 >= 0 && x2 <= bw.W - 1.0 && y2 >= 0 &&
           y2 <= bw.H - 1.0) {
-        const double bu = bilinear(bw.u, bw.H, bw.W, x2, y2),
-                     bv = bilinear(bw.v, bw.H, bw.W, x2, y2);
-        const double e = std::hypot(fu + bu, fv + bv);
+        const double e = (f + sampleFlow(bw, x2, y2)).norm();  // forward–backward error
         if (e <= 4 * tau) w = static_cast<float>(1.0 / (1.0 + (e / tau) * (e / tau)));
       }
       weight[p] = weight[HW + p] = w;

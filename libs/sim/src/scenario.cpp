@@ -76,22 +76,11 @@ std::string toString(SimulationMode m) {
 }
 
 SensorMode parseSensorMode(const std::string& name) {
-  if (name == "mono") return SensorMode::Mono;
-  if (name == "stereo") return SensorMode::Stereo;
-  if (name == "rgbd") return SensorMode::Rgbd;
-  throw std::invalid_argument("unknown sensor '" + name + "', expected mono, stereo or rgbd");
+  return parseEnum<SensorMode>(name);
 }
 
 std::string toString(SensorMode m) {
-  switch (m) {
-    case SensorMode::Mono:
-      return "mono";
-    case SensorMode::Stereo:
-      return "stereo";
-    case SensorMode::Rgbd:
-      return "rgbd";
-  }
-  return "?";
+  return dbacov::toString(m);
 }
 
 void ScenarioConfig::validate() const {
@@ -115,6 +104,8 @@ void ScenarioConfig::validate() const {
   weights.validate();
   noise.validate();
   flow.validate();
+  // An unknown flow estimator is a configuration error, found before anything is simulated.
+  if (!flow.isModel()) makeFlowEstimator(flow.source);
   // A correlation longer than the grid makes each image's noise one offset, and its kernel (8ℓ/√2
   // wide) would need memory and time beyond the grid's: bound it by the grid (issue 16).
   require(noise.type != NoiseModel::Type::Correlated ||
@@ -165,8 +156,6 @@ DbaOptions ScenarioConfig::engineOptions() const {
 
 Scenario::Scenario(ScenarioConfig config) : config_(std::move(config)) {
   config_.validate();
-  // An unknown flow estimator is a configuration error, found before anything is simulated.
-  if (!config_.flow.isModel()) makeFlowEstimator(config_.flow.source);
   K_ = config_.camera.intrinsics();
   const int K = config_.trajectory.num_keyframes, H = config_.camera.H, W = config_.camera.W;
   for (int k = 0; k < K; ++k) {

@@ -214,7 +214,7 @@ std::vector<ScenarioField> makeSchema() {
       "sensor.mode", "--sensor",
       "DROID mode: mono, stereo (an edge to the right camera of a rig per keyframe) or rgbd (a "
       "depth-sensor reading per pixel); stereo and rgbd make the scale metric",
-      {"mono", "stereo", "rgbd"}, parseSensorMode, toString,
+      enumNames<SensorMode>(), parseSensorMode, toString,
       [](C & c) -> auto& { return c.sensor.mode; }));
   s.push_back(field<double>(
       "sensor.stereo_baseline", "--stereo-baseline",

@@ -48,6 +48,9 @@ struct FlowField {
   std::vector<float> u, v;
 };
 
+/// The flow at (x, y), bilinear between pixels, clamped to the field's border.
+Eigen::Vector2d sampleFlow(const FlowField& f, double x, double y);
+
 /// A dense optical flow estimator between two grey images of equal size.
 class FlowEstimator {
  public:

@@ -34,9 +34,11 @@
 // (`run`) and every snapshot (DROID re-predicts its targets at every update).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -108,7 +110,19 @@ inline DbaSolverOptions defaultScenarioSolver() {
 /// depth-sensor factor (RGB-D). Both carry metric information: the scale is then observable and
 /// the `droid` gauge may hold a single keyframe.
 enum class SensorMode { Mono, Stereo, Rgbd };
-/// "mono", "stereo", "rgbd"; throws std::invalid_argument otherwise.
+}  // namespace dbacov::sim
+
+template <>
+struct dbacov::EnumNames<dbacov::sim::SensorMode> {
+  static constexpr const char* what = "sensor";
+  static constexpr std::array<std::pair<sim::SensorMode, const char*>, 3> entries{
+      {{sim::SensorMode::Mono, "mono"},
+       {sim::SensorMode::Stereo, "stereo"},
+       {sim::SensorMode::Rgbd, "rgbd"}}};
+};
+
+namespace dbacov::sim {
+/// The names of the table above; throws std::invalid_argument for an unknown name.
 SensorMode parseSensorMode(const std::string& name);
 std::string toString(SensorMode m);
 
@@ -148,7 +162,8 @@ struct ScenarioConfig {
   TimeConfig time;
   std::uint64_t seed = 1;
 
-  /// Throws std::invalid_argument naming the offending setting.
+  /// Throws std::invalid_argument naming the offending setting (also for a --flow estimator that
+  /// this program has not registered, image_flow.h).
   void validate() const;
   int numSnapshots() const;
   /// The engine options of the solve (and of a consistent covariance computation): DROID's
