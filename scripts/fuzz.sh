@@ -8,11 +8,13 @@
 #            SECONDS / waves, so 4 targets on 2 cores run in two waves of 30 s each, on 4 cores in
 #            one wave of 60 s (at least 1 s each).
 #   TARGET   npz, rawlog, graph, ground_truth (default all)
-# Builds build-fuzz/ (clang, AddressSanitizer + UndefinedBehaviorSanitizer, -fsanitize=fuzzer),
-# writes the seed corpus into build-fuzz/corpus/<target>/ (kept between runs, so longer runs build
-# on earlier ones) and prints what each target did. A crash, leak, sanitizer report, timeout or
-# out-of-memory stops the target; its input is in build-fuzz/artifacts/. Fix the cause, then add
-# the input to tests/fuzz/regressions/<target>/: ctest replays it in every build from then on.
+# Builds the fuzzers in $DBACOV_FUZZ_BUILD_DIR (default build-fuzz/; scripts/test.sh passes its
+# sanitizer tree build-asan/), configured by scripts/sanitizer_tree.sh (clang, AddressSanitizer +
+# UndefinedBehaviorSanitizer, -fsanitize=fuzzer), writes the seed corpus into DIR/corpus/<target>/
+# (kept between runs, so longer runs build on earlier ones) and prints what each target did. A
+# crash, leak, sanitizer report, timeout or out-of-memory stops the target; its input is in
+# DIR/artifacts/. Fix the cause, then add the input to tests/fuzz/regressions/<target>/: ctest
+# replays it in every build from then on.
 # Exit status 0 when every target ran clean, 1 otherwise. Needs clang and libclang-rt-14-dev
 # (scripts/setup.sh installs them).
 set -euo pipefail
@@ -26,14 +28,13 @@ waves=$(( (${#targets[@]} + cores - 1) / cores ))
 per_target=$(( seconds / waves ))
 [ "$per_target" -ge 1 ] || per_target=1
 
-san="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
-CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
-  -DDBACOV_BUILD_TESTS=OFF -DDBACOV_BUILD_BENCHMARKS=OFF -DDBACOV_BUILD_FUZZERS=ON \
-  -DCMAKE_CXX_FLAGS="$san -Wno-pass-failed" -DCMAKE_EXE_LINKER_FLAGS="$san" \
-  -DCMAKE_SHARED_LINKER_FLAGS="$san" -DDBACOV_UNITY_BUILD=ON > /dev/null
-cmake --build build-fuzz -j"$(nproc)" --target fuzz_seeds "${targets[@]/#/fuzz_}"
-build-fuzz/bin/fuzz_seeds build-fuzz/corpus
-mkdir -p build-fuzz/artifacts build-fuzz/logs
+dir=${DBACOV_FUZZ_BUILD_DIR:-build-fuzz}
+tests=OFF  # a tree that builds the suites too (scripts/test.sh's) keeps them
+grep -qs '^DBACOV_BUILD_TESTS:BOOL=ON' "$dir/CMakeCache.txt" && tests=ON
+scripts/sanitizer_tree.sh "$dir" "$tests"
+cmake --build "$dir" -j"$(nproc)" --target fuzz_seeds "${targets[@]/#/fuzz_}"
+"$dir"/bin/fuzz_seeds "$dir"/corpus
+mkdir -p "$dir"/artifacts "$dir"/logs
 
 declare -A pid
 failed=0
@@ -41,24 +42,25 @@ for ((first = 0; first < ${#targets[@]}; first += cores)); do
   wave=("${targets[@]:first:cores}")
   for t in "${wave[@]}"; do
     # -rss_limit_mb: libFuzzer's default (2 GiB), which also limits any single allocation.
-    build-fuzz/bin/fuzz_"$t" build-fuzz/corpus/"$t" -max_total_time="$per_target" -timeout=10 \
-      -rss_limit_mb=2048 -dict=tests/fuzz/"$t".dict -artifact_prefix=build-fuzz/artifacts/"$t"- \
-      -print_final_stats=1 > build-fuzz/logs/"$t".log 2>&1 &
+    "$dir"/bin/fuzz_"$t" "$dir"/corpus/"$t" -max_total_time="$per_target" -timeout=10 \
+      -rss_limit_mb=2048 -dict=tests/fuzz/"$t".dict -artifact_prefix="$dir"/artifacts/"$t"- \
+      -print_final_stats=1 > "$dir"/logs/"$t".log 2>&1 &
     pid[$t]=$!
   done
   for t in "${wave[@]}"; do
     status=0
     wait "${pid[$t]}" || status=$?
-    log=build-fuzz/logs/"$t".log
+    log="$dir"/logs/"$t".log
     runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
-    cov=$(grep -aE '^#[0-9]+.*(DONE|cov:)' "$log" | tail -1 | sed -n 's/.*cov: \([0-9]*\) ft: \([0-9]*\) corp: \([^ ]*\).*/cov \1, features \2, corpus \3/p')
+    cov=$({ grep -aE '^#[0-9]+.*(DONE|cov:)' "$log" || true; } | tail -1 |
+      sed -n 's/.*cov: \([0-9]*\) ft: \([0-9]*\) corp: \([^ ]*\).*/cov \1, features \2, corpus \3/p')
     if [ "$status" -eq 0 ]; then
       echo "fuzz: $t: ${runs:-?} inputs in ${per_target} s, ${cov:-?}, no crash"
     else
       failed=1
       echo "fuzz: $t: FAILED (status $status) after ${runs:-?} inputs; log: $log" >&2
       grep -aE 'ERROR|SUMMARY|runtime error|artifact' "$log" | head -20 >&2 || true
-      echo "fuzz: reproduce with build-fuzz/bin/fuzz_$t build-fuzz/artifacts/$t-*; once fixed, copy" \
+      echo "fuzz: reproduce with $dir/bin/fuzz_$t $dir/artifacts/$t-*; once fixed, copy" \
            "the input into tests/fuzz/regressions/$t/" >&2
     fi
   done

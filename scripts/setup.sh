@@ -41,6 +41,7 @@ fi
 
 if [ "${1:-}" != "--no-build" ]; then
   build=${DBACOV_BUILD_DIR:-build}
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
+  # Unity builds: a cold build about a third faster (top-level CMakeLists.txt), same outputs.
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDBACOV_UNITY_BUILD=ON
   cmake --build "$build" -j"$(nproc)"
 fi

@@ -22,32 +22,21 @@ for n in $(seq -w 1 "$copies"); do ln -s "$snapshot" "$work/many/s$n.npz"; done
 pin=()
 if [ "$(nproc)" -ge 2 ] && command -v taskset > /dev/null; then pin=(taskset -c 1); fi
 
-# run NAME CMD...: REPEATS runs; prints "median_wall median_cpu" in seconds.
-run() {
-  local walls=() cpus=()
-  for ((r = 0; r < repeats; ++r)); do
-    local t0 t1
-    t0=$(date +%s.%N)
-    /usr/bin/time -f '%U %S' -o "$work/time" "${pin[@]}" "$@" > /dev/null
-    t1=$(date +%s.%N)
-    walls+=("$(echo "$t1 - $t0" | bc -l)")
-    cpus+=("$(awk '{ print $1 + $2 }' "$work/time")")
-  done
-  printf '%s\n' "${walls[@]}" | sort -g | awk '{ a[NR] = $1 } END { printf "%s ", a[int((NR + 1) / 2)] }'
-  printf '%s\n' "${cpus[@]}" | sort -g | awk '{ a[NR] = $1 } END { printf "%s\n", a[int((NR + 1) / 2)] }'
-}
+# run CMD...: REPEATS runs; prints "median_wall median_cpu" in seconds (proc_time.py: CPU time
+# from the kernel's rusage to the microsecond, not /usr/bin/time's 10 ms steps).
+run() { /usr/bin/python3 "$here/proc_time.py" "$repeats" "${pin[@]}" "$@"; }
 
 printf '%-10s %-14s %10s %10s\n' snapshots tool wall_s cpu_s
 # Start-up alone: what every run pays before the first snapshot.
 read -r hw hc < <(run "$build/bin/dba-covariance" --help)
-printf '%-10s %-14s %10.3f %10.3f\n' 0 "--help" "$hw" "$hc"
+printf '%-10s %-14s %10.4f %10.4f\n' 0 "--help" "$hw" "$hc"
 for input in one many; do
   n=$([ "$input" = one ] && echo 1 || echo "$copies")
   read -r dw dc < <(run "$build/bin/dba-covariance" -i "$work/$input" --csv "$work/dbacov.csv" \
     --threads 1 -q)
   read -r cw cc < <(run "$build/bin/peer_ceres_covariance" -i "$work/$input" --csv "$work/ceres.csv")
-  printf '%-10d %-14s %10.3f %10.3f\n' "$n" dba-covariance "$dw" "$dc"
-  printf '%-10d %-14s %10.3f %10.3f\n' "$n" ceres-peer "$cw" "$cc"
+  printf '%-10d %-14s %10.4f %10.4f\n' "$n" dba-covariance "$dw" "$dc"
+  printf '%-10d %-14s %10.4f %10.4f\n' "$n" ceres-peer "$cw" "$cc"
   awk -v n="$n" -v dw="$dw" -v dc="$dc" -v cw="$cw" -v cc="$cc" 'BEGIN {
     printf "%-10d %-14s %9.1fx %9.1fx   (per snapshot: dbacov %.1f ms wall, ceres %.0f ms)\n",
       n, "ratio", cw / dw, cc / dc, 1000 * dw / n, 1000 * cw / n }'

@@ -144,8 +144,9 @@ for name, method in [('liar_stored.npz', zipfile.ZIP_STORED), ('liar_deflated.np
   for (const auto& [name, what] : cases) {
     SCOPED_TRACE(name);
     std::string message;
+    const std::string file = name;  // a structured binding is not capturable before C++20
     const std::size_t largest = largestAllocationDuring(
-        [&] { message = inputErrorOf([&] { NpzReader(dir.file(name)).read("a"); }); });
+        [&] { message = inputErrorOf([&] { NpzReader(dir.file(file)).read("a"); }); });
     expectMentions(message, {name + ": key 'a'", what});
     EXPECT_LT(largest, std::size_t{1} << 20) << "allocated " << largest << " bytes";
   }

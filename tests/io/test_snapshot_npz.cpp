@@ -148,7 +148,8 @@ save('nan_weight.npz', weight=np.where(np.arange(61) == 7, np.nan, d['weight']).
   };
   for (const auto& [name, what] : cases) {
     SCOPED_TRACE(name);
-    expectMentions(inputErrorOf([&] { loadSnapshotNpz(dir.file(name), 0); }), {name + ": ", what});
+    const std::string file = name;  // a structured binding is not capturable before C++20
+    expectMentions(inputErrorOf([&] { loadSnapshotNpz(dir.file(file), 0); }), {name + ": ", what});
   }
 }
 

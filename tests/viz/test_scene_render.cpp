@@ -55,9 +55,10 @@ TEST(SceneRender, MrptRendererFollowsTheDocumentedCameraModel) {
   const mrpt::img::CImage img = renderer.render(scene, view);
   ASSERT_EQ(img.getWidth(), 640u);
   for (const auto& [p, colour] : marks) {
+    const mrpt::img::TColor c = colour;  // a structured binding is not capturable before C++20
     const testing::Box b = testing::pixelBox(img, [&](const testing::Rgb& q) {
-      return std::abs(q.r - colour.R) < 70 && std::abs(q.g - colour.G) < 70 &&
-             std::abs(q.b - colour.B) < 70 && !isBackground(q);
+      return std::abs(q.r - c.R) < 70 && std::abs(q.g - c.G) < 70 && std::abs(q.b - c.B) < 70 &&
+             !isBackground(q);
     });
     ASSERT_FALSE(b.empty());
     const Eigen::Vector2d centre(0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1));

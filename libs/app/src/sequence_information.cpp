@@ -308,7 +308,6 @@ SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapsho
 
   // Marginal relative informations and H₁ = Σ_e J_eᵀ Ω_e J_e over the non-root slots.
   SparsifiedGraph out;
-  double trace_H1_Sigma = 0;  // tr(H₁ Λ⁻¹) = Σ_e tr(Ω_e Σ_rel,e)
   std::vector<EdgeData> edata;
   std::vector<Eigen::Triplet<double>> trip;
   for (const auto& [a, b] : pairs) {
@@ -334,13 +333,10 @@ SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapsho
       e.information = es.eigenvectors() * es.eigenvalues().cwiseMax(floor).asDiagonal() *
                       es.eigenvectors().transpose();
       e.information = 0.5 * (e.information + e.information.transpose());
-      trace_H1_Sigma += (e.information * Sigma_rel).trace();
     } else if (!informationOf(Sigma_rel, &e.information)) {
       throw NumericalError("the relative covariance of keyframes " + joinKeyframes({e.from, e.to}) +
                                " is not positive definite",
                            {e.from, e.to});
-    } else {
-      trace_H1_Sigma += 6;
     }
     Vector6d r;
     Matrix6d Jf, Jt;

@@ -158,7 +158,7 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
   std::vector<Task> tasks;
   for (int src_slot = 0; src_slot < n; ++src_slot) {
     const int src = ne.keyframes[src_slot];
-    Task t{src_slot, {src_slot}, {}};
+    Task t{src_slot, {src_slot}, {}, {}};
     for (int e = 0; e < s.numEdges(); ++e) {
       if (s.ii[e] != src) continue;
       if (s.jj[e] == src) {

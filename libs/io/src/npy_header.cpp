@@ -155,10 +155,10 @@ std::string pythonTupleRepr(const std::vector<std::size_t>& shape) {
 }  // namespace
 
 NpyArray::DType dtypeFromDescr(const std::string& descr, const std::string& context) {
-  using DType = NpyArray::DType;
-  static const std::pair<const char*, DType> kCodes[] = {
-      {"f4", DType::Float32}, {"f8", DType::Float64}, {"i4", DType::Int32},
-      {"i8", DType::Int64},   {"u1", DType::UInt8},   {"b1", DType::Bool}};
+  using T = NpyArray::DType;  // (npy.cpp's file-level DType would be shadowed in a unity batch)
+  static const std::pair<const char*, T> kCodes[] = {{"f4", T::Float32}, {"f8", T::Float64},
+                                                     {"i4", T::Int32},   {"i8", T::Int64},
+                                                     {"u1", T::UInt8},   {"b1", T::Bool}};
   const char order = descr.empty() ? '\0' : descr[0];
   const std::string code = descr.empty() ? "" : descr.substr(1);
   const std::string quoted = "dtype '" + descr + "'";
