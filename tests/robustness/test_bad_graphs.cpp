@@ -17,7 +17,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace bad_graphs {  // not anonymous: the suite is compiled as a unity build
 
 using testing::AppResult;
 
@@ -208,5 +208,5 @@ TEST(BadGraphs, DegenerateGeometryGivesHugeFiniteCovariances) {
   }
 }
 
-}  // namespace
+}  // namespace bad_graphs
 }  // namespace dbacov

@@ -14,7 +14,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace bad_npz {  // not anonymous: the suite is compiled as a unity build
 
 using testing::NpzArrays;
 using D = io::NpyArray::DType;
@@ -278,5 +278,5 @@ TEST_P(BadNpzTest, IsExplainedAndTheGoodSnapshotsAreWritten) {
 INSTANTIATE_TEST_SUITE_P(Corpus, BadNpzTest, ::testing::ValuesIn(corpus()),
                          [](const auto& p) { return p.param.name; });
 
-}  // namespace
+}  // namespace bad_npz
 }  // namespace dbacov

@@ -17,7 +17,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace bad_pose_graphs {  // not anonymous: the suite is compiled as a unity build
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -123,5 +123,5 @@ TEST(BadPoseGraph, DamagedFilesAreExplained) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("o.rawlog")));
 }
 
-}  // namespace
+}  // namespace bad_pose_graphs
 }  // namespace dbacov

@@ -20,7 +20,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace bad_rawlog {  // not anonymous: the suite is compiled as a unity build
 
 using testing::RecordBytes;
 
@@ -203,5 +203,5 @@ TEST_P(BadRawlogTest, IsExplainedAndTheGoodSnapshotsAreWritten) {
 INSTANTIATE_TEST_SUITE_P(Corpus, BadRawlogTest, ::testing::ValuesIn(corpus()),
                          [](const auto& p) { return p.param.name; });
 
-}  // namespace
+}  // namespace bad_rawlog
 }  // namespace dbacov

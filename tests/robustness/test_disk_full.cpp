@@ -14,7 +14,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace disk_full {  // not anonymous: the suite is compiled as a unity build
 
 const std::string kBin = std::string(DBACOV_BINARY_DIR) + "/bin/";
 
@@ -59,5 +59,5 @@ TEST(DiskFull, AnOutputThatFailsMidRunIsGivenUpAndTheOthersGoOn) {
                                                      "g.nodes.csv", "in", "k.csv", "p.rawlog"}));
 }
 
-}  // namespace
+}  // namespace disk_full
 }  // namespace dbacov

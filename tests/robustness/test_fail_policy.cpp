@@ -13,7 +13,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace fail_policy {  // not anonymous: the suite is compiled as a unity build
 
 using testing::AppResult;
 namespace fs = std::filesystem;
@@ -207,5 +207,5 @@ TEST(FailPolicy, HelpStatesBothPoliciesAndTheSummary) {
   }
 }
 
-}  // namespace
+}  // namespace fail_policy
 }  // namespace dbacov

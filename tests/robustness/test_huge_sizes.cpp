@@ -16,7 +16,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace huge_sizes {  // not anonymous: the suite is compiled as a unity build
 
 constexpr std::size_t kMiB = std::size_t{1} << 20;
 
@@ -189,5 +189,5 @@ TEST(HugeSizes, SensoryFrameDeclaringBillionsOfObservationsIsRefusedBeforeAlloca
   EXPECT_LT(largest, kMiB);
 }
 
-}  // namespace
+}  // namespace huge_sizes
 }  // namespace dbacov

@@ -26,7 +26,7 @@
 extern char** environ;
 
 namespace dbacov {
-namespace {
+namespace kill {  // not anonymous: the suite is compiled as a unity build
 
 namespace fs = std::filesystem;
 const std::string kBin = std::string(DBACOV_BINARY_DIR) + "/bin/";
@@ -227,5 +227,5 @@ TEST(Kill, WhileGnuplotDrawsThePlotsLeavesThePreviousFigures) {
   EXPECT_EQ(snapshotOf(dir.file("plots")), before);
 }
 
-}  // namespace
+}  // namespace kill
 }  // namespace dbacov

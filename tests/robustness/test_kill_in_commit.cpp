@@ -15,7 +15,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace kill_in_commit {  // not anonymous: the suite is compiled as a unity build
 
 namespace fs = std::filesystem;
 const std::string kBin = std::string(DBACOV_BINARY_DIR) + "/bin/";
@@ -73,5 +73,5 @@ TEST(KillInCommit, LeavesTheFirstKOutputsNewAndTheOthersPrevious) {
   }
 }
 
-}  // namespace
+}  // namespace kill_in_commit
 }  // namespace dbacov

@@ -16,7 +16,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace outside_graph {  // not anonymous: the suite is compiled as a unity build
 
 const std::string kShared = std::string(DBACOV_SHARED_DATA_DIR) + "/droid_window_0055.npz";
 
@@ -114,5 +114,5 @@ TEST(OutsideTheGraph, KeyframeZeroOfTheSharedDroidSnapshotAppearsNowhere) {
   EXPECT_EQ(n.sigma_maps.count(0), 0u);
 }
 
-}  // namespace
+}  // namespace outside_graph
 }  // namespace dbacov

@@ -26,7 +26,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace path_clashes {  // not anonymous: the suite is compiled as a unity build
 
 using testing::AppResult;
 namespace fs = std::filesystem;
@@ -328,5 +328,5 @@ TEST(PathClashes, PlanComparesIdentityNotNames) {
   EXPECT_THROW(io::resolveOutputTarget(dir.file("loop")), InputError);
 }
 
-}  // namespace
+}  // namespace path_clashes
 }  // namespace dbacov

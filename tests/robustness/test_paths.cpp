@@ -16,7 +16,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace paths {  // not anonymous: the suite is compiled as a unity build
 
 using testing::AppResult;
 namespace fs = std::filesystem;
@@ -194,5 +194,5 @@ TEST(Paths, UnwritableDirectory) {
   EXPECT_TRUE(fs::is_empty(dir.file("ro")));
 }
 
-}  // namespace
+}  // namespace paths
 }  // namespace dbacov

@@ -24,7 +24,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace refused_inputs {  // not anonymous: the suite is compiled as a unity build
 
 using testing::AppResult;
 
@@ -276,5 +276,5 @@ TEST(RefusedInputs, EvaluationInputsThatWouldBeScoredWrong) {
       << r.err;
 }
 
-}  // namespace
+}  // namespace refused_inputs
 }  // namespace dbacov

@@ -17,7 +17,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace silently_wrong {  // not anonymous: the suite is compiled as a unity build
 
 using testing::AppResult;
 
@@ -223,5 +223,5 @@ TEST(SilentlyWrong, TimesThatMrptCannotRepresentAreRefused) {
   EXPECT_TRUE(std::filesystem::exists(dir.file("u.rawlog")));
 }
 
-}  // namespace
+}  // namespace silently_wrong
 }  // namespace dbacov

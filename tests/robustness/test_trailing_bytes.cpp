@@ -25,7 +25,7 @@
 #include "temp_dir.h"
 
 namespace dbacov {
-namespace {
+namespace trailing_bytes {  // not anonymous: the suite is compiled as a unity build
 
 const Snapshot& good(int seed) {
   static std::map<int, Snapshot> cache;
@@ -231,5 +231,5 @@ TEST(TrailingBytes, AfterAPoseRawlogAreRefusedByDbaEvaluate) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("e.json")));
 }
 
-}  // namespace
+}  // namespace trailing_bytes
 }  // namespace dbacov
