@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <sstream>
 
 #include "dbacov/core/keyframe_times.h"
@@ -23,36 +25,62 @@ std::string shapeStr(std::initializer_list<std::size_t> dims) {
   return os.str();
 }
 
+/// The unsigned integer of T's width and T's exponent bits: x is non-finite (±inf or NaN) exactly
+/// when all of them are set.
+template <typename T>
+struct FloatBits;
+template <>
+struct FloatBits<float> {
+  using U = std::uint32_t;
+  static constexpr U kExponent = 0x7f800000u;
+};
+template <>
+struct FloatBits<double> {
+  using U = std::uint64_t;
+  static constexpr U kExponent = 0x7ff0000000000000ull;
+};
+
 /// Index of the first non-finite value, or -1.
 template <typename T>
 long long firstNonFinite(const T* v, std::size_t n) {
-  // Blocks of 256 without a branch per value (the compiler vectorizes the block's reduction);
-  // the block that holds a non-finite value is searched again for its first one.
+  // Blocks of 256 tested on the bits, without a branch per value: an integer OR-reduction, which
+  // the compiler vectorizes (a floating-point sum would have to stay in order, one lane at a
+  // time). The block that holds a non-finite value is searched again for its first one.
+  using U = typename FloatBits<T>::U;
+  constexpr U kExp = FloatBits<T>::kExponent;
   constexpr std::size_t kBlock = 256;
   std::size_t i = 0;
   for (; i + kBlock <= n; i += kBlock) {
-    T zero = 0;  // x - x is 0 for finite x, NaN otherwise; NaN propagates through the sum
-    for (std::size_t j = 0; j < kBlock; ++j) zero += v[i + j] - v[i + j];
-    if (!(zero == T(0))) break;
+    U bad = 0;
+    for (std::size_t j = 0; j < kBlock; ++j) {
+      U bits;
+      std::memcpy(&bits, v + i + j, sizeof bits);
+      bad |= static_cast<U>((bits & kExp) == kExp);
+    }
+    if (bad) break;
   }
   for (; i < n; ++i)
     if (!std::isfinite(v[i])) return static_cast<long long>(i);
   return -1;
 }
 
-/// Index of the first negative value, or -1; *any_positive says whether some value is > 0.
+/// Index of the first negative value of finite floats, or -1; *any_positive says whether some
+/// value is > 0. On the bits: x < 0 when the sign is set and the magnitude is not zero (-0 is not
+/// negative), x > 0 when the sign is clear and the magnitude is not zero.
 long long firstNegative(const float* v, std::size_t n, bool* any_positive) {
   constexpr std::size_t kBlock = 256;
   std::size_t i = 0;
   bool positive = false;
   for (; i + kBlock <= n; i += kBlock) {
-    float lo = v[i], hi = v[i];
+    std::uint32_t neg = 0, pos = 0;
     for (std::size_t j = 0; j < kBlock; ++j) {
-      lo = std::min(lo, v[i + j]);
-      hi = std::max(hi, v[i + j]);
+      std::uint32_t bits;
+      std::memcpy(&bits, v + i + j, sizeof bits);
+      neg |= static_cast<std::uint32_t>(bits > 0x80000000u);
+      pos |= static_cast<std::uint32_t>(bits - 1u < 0x7fffffffu);  // 1 .. 0x7fffffff
     }
-    positive |= hi > 0;
-    if (lo < 0) break;
+    positive |= pos != 0;
+    if (neg) break;
   }
   for (; i < n; ++i) {
     if (v[i] < 0) return static_cast<long long>(i);
