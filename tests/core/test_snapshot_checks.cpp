@@ -47,10 +47,9 @@ TEST(SnapshotChecks, FirstNonFiniteValueIsNamedWhereverItIs) {
   const std::size_t n = good.target.size();
   ASSERT_GT(n, 1024u);
   ASSERT_NE(n % 256, 0u) << "the tail after the last block must be probed too";
-  const float specials[] = {std::numeric_limits<float>::quiet_NaN(),
-                            -std::numeric_limits<float>::quiet_NaN(),
-                            std::numeric_limits<float>::infinity(),
-                            -std::numeric_limits<float>::infinity()};
+  const float specials[] = {
+      std::numeric_limits<float>::quiet_NaN(), -std::numeric_limits<float>::quiet_NaN(),
+      std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()};
   for (const std::size_t at : probePositions(n)) {
     for (const float bad : specials) {
       for (const char* key : {"target", "weight"}) {
@@ -61,9 +60,9 @@ TEST(SnapshotChecks, FirstNonFiniteValueIsNamedWhereverItIs) {
         if (at == n - 1) v[n - 1] = bad;
         const std::string message = validationError(s);
         SCOPED_TRACE(std::string(key) + " at " + std::to_string(at) + " = " + std::to_string(bad));
-        EXPECT_NE(message.find(std::string("key '") + key + "' is non-finite at " +
-                               edgePixel(s, at)),
-                  std::string::npos)
+        EXPECT_NE(
+            message.find(std::string("key '") + key + "' is non-finite at " + edgePixel(s, at)),
+            std::string::npos)
             << message;
       }
     }
@@ -80,8 +79,8 @@ TEST(SnapshotChecks, NegativeWeightsAreFoundAndMinusZeroIsNotNegative) {
   const Snapshot good = testing::tinySnapshot(4, 0).snapshot;
   const std::size_t n = good.weight.size();
   for (const std::size_t at : probePositions(n)) {
-    for (const float neg : {-1.0f, -std::numeric_limits<float>::denorm_min(),
-                            -std::numeric_limits<float>::max()}) {
+    for (const float neg :
+         {-1.0f, -std::numeric_limits<float>::denorm_min(), -std::numeric_limits<float>::max()}) {
       Snapshot s = good;
       s.weight[at] = neg;
       s.weight[n - 1] = -2.0f;  // a later one must not be named
