@@ -20,7 +20,8 @@ if [ "$version" != "14" ]; then
   echo "check_source: clang-format $version found, the tree is formatted with version 14" >&2
   exit 1
 fi
-mapfile -t files < <(git ls-files '*.cpp' '*.h' '*.hpp' '*.cc')
+# Tracked files and new ones not yet added (but not ignored: no build trees).
+mapfile -t files < <(git ls-files --cached --others --exclude-standard '*.cpp' '*.h' '*.hpp' '*.cc')
 if [ "${1:-}" = "--fix" ]; then
   clang-format -i "${files[@]}"
 fi

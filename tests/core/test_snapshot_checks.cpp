@@ -102,6 +102,28 @@ TEST(SnapshotChecks, NegativeWeightsAreFoundAndMinusZeroIsNotNegative) {
   EXPECT_EQ(validationError(s), "");
 }
 
+TEST(SnapshotChecks, NegativeSensorDepthsAreFoundAndZeroMeansNoReading) {
+  Snapshot good = testing::tinySnapshot(6, 0).snapshot;
+  good.disps_sens = std::vector<float>(good.disps.data(), good.disps.data() + good.disps.size());
+  ASSERT_EQ(validationError(good), "");
+  const std::size_t n = good.disps_sens->size(), HW = static_cast<std::size_t>(good.H) * good.W;
+  ASSERT_GT(n, 300u);
+  for (std::size_t at : {std::size_t{0}, std::size_t{255}, std::size_t{256}, n / 2, n - 1}) {
+    Snapshot s = good;
+    (*s.disps_sens)[at] = -std::numeric_limits<float>::denorm_min();
+    if (at != n - 1) (*s.disps_sens)[n - 1] = -1.0f;  // a later one must not be named
+    std::ostringstream where;
+    where << "keyframe " << at / HW << " pixel (x=" << at % HW % good.W
+          << ", y=" << at % HW / good.W << ")";
+    const std::string message = validationError(s);
+    EXPECT_NE(message.find("key 'disps_sens' is negative at " + where.str()), std::string::npos)
+        << message;
+  }
+  Snapshot s = good;
+  for (float& d : *s.disps_sens) d = -0.0f;  // no reading anywhere is valid
+  EXPECT_EQ(validationError(s), "");
+}
+
 TEST(SnapshotChecks, NonFiniteKeyframeTimesAreNamed) {
   const Snapshot good = testing::tinySnapshot(5, 0).snapshot;
   ASSERT_TRUE(good.timestamps_s);

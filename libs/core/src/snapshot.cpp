@@ -64,10 +64,10 @@ long long firstNonFinite(const T* v, std::size_t n) {
   return -1;
 }
 
-/// Index of the first negative value of finite floats, or -1; *any_positive says whether some
-/// value is > 0. On the bits: x < 0 when the sign is set and the magnitude is not zero (-0 is not
-/// negative), x > 0 when the sign is clear and the magnitude is not zero.
-long long firstNegative(const float* v, std::size_t n, bool* any_positive) {
+/// Index of the first negative value of finite floats, or -1; *any_positive (when given) says
+/// whether some value is > 0. On the bits: x < 0 when the sign is set and the magnitude is not zero
+/// (-0 is not negative), x > 0 when the sign is clear and the magnitude is not zero.
+long long firstNegative(const float* v, std::size_t n, bool* any_positive = nullptr) {
   constexpr std::size_t kBlock = 256;
   std::size_t i = 0;
   bool positive = false;
@@ -86,7 +86,7 @@ long long firstNegative(const float* v, std::size_t n, bool* any_positive) {
     if (v[i] < 0) return static_cast<long long>(i);
     positive |= v[i] > 0;
   }
-  *any_positive = positive;
+  if (any_positive) *any_positive = positive;
   return -1;
 }
 
@@ -215,10 +215,9 @@ void Snapshot::validate() const {
   if (disps_sens) {
     if (long long bad = firstNonFinite(disps_sens->data(), disps_sens->size()); bad >= 0)
       fail(*this, "key 'disps_sens' is non-finite at " + pixelOf(bad, 1, "keyframe"));
-    for (std::size_t i = 0; i < disps_sens->size(); ++i)
-      if ((*disps_sens)[i] < 0)
-        fail(*this, "key 'disps_sens' is negative at " + pixelOf(i, 1, "keyframe") +
-                        ", expected an inverse depth >= 0 (0 = no sensor reading)");
+    if (long long i = firstNegative(disps_sens->data(), disps_sens->size()); i >= 0)
+      fail(*this, "key 'disps_sens' is negative at " + pixelOf(i, 1, "keyframe") +
+                      ", expected an inverse depth >= 0 (0 = no sensor reading)");
   }
   if (long long bad = firstNonFinite(target.data(), target.size()); bad >= 0)
     fail(*this, "key 'target' is non-finite at " + pixelOf(bad, 2, "edge"));
