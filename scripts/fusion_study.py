@@ -9,7 +9,11 @@ node but the two gauge keyframes (held at the truth by the simulator) and prints
 region for N = runs, and the RMS position error.
 
   scripts/fusion_study.py [--build build] [--runs 20] [--scenarios line,loop,priors] [--out DIR]
-      [--methods snapshot-marginals-not-fusable,chain,covisibility]
+      [--methods snapshot-marginals-not-fusable,chain,covisibility] [--persistence snapshot|edge]
+
+--persistence edge draws each edge's flows once and shares them among the snapshots that hold it
+(simul-dba --noise-persistence edge), as DROID's overlapping windows share their flows; the
+default redraws them per snapshot.
 """
 import argparse, csv, math, os, random, subprocess, sys
 
@@ -105,6 +109,8 @@ def main():
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--scenarios", default="line,loop,priors")
     ap.add_argument("--out", default="/tmp/dbacov_fusion_study")
+    ap.add_argument("--persistence", default="snapshot", choices=["snapshot", "edge"],
+                    help="simul-dba --noise-persistence")
     ap.add_argument("--methods", default=",".join(METHODS), help="--graph-edges values to compare")
     a = ap.parse_args()
     methods = a.methods.split(",")
@@ -117,7 +123,8 @@ def main():
         for r in range(a.runs):
             d = os.path.join(a.out, "%s_%d" % (name, r))
             run([b + "/simul-dba", "-o", d, "--config", os.path.join(ROOT, config), "--height", "24",
-                 "--width", "32", "--weight-scale", "256", "--run", str(r), "-q"])
+                 "--width", "32", "--weight-scale", "256", "--run", str(r), "-q",
+                 "--noise-persistence", a.persistence])
             truth = read_tum(os.path.join(d, "groundtruth.tum"))
             extra = []
             if kind:
@@ -143,9 +150,9 @@ def main():
             s = stats[m]
             anees = s["nees"] / s["n"]
             rows.append((name, m, a.runs, anees, lo, hi, lo <= anees <= hi, math.sqrt(s["pos2"] / s["n"])))
-    print("scenario,graph_edges,runs,anees,region_lo,region_hi,inside,rms_position")
+    print("persistence,scenario,graph_edges,runs,anees,region_lo,region_hi,inside,rms_position")
     for row in rows:
-        print("%s,%s,%d,%.3f,%.2f,%.2f,%s,%.5f" % row)
+        print("%s,%s,%s,%d,%.3f,%.2f,%.2f,%s,%.5f" % ((a.persistence,) + row))
 
 
 if __name__ == "__main__":

@@ -21,14 +21,22 @@ static double since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+static const char* refineName(LogDetRefinement r) {
+  return r == LogDetRefinement::None              ? "uniform"
+         : r == LogDetRefinement::NaturalGradient ? "nat-grad"
+                                                  : "block";
+}
+
 static void exportBoth(const GaugedInformation& info, const Snapshot& s, const char* what) {
   for (GraphTopology t : {GraphTopology::Chain, GraphTopology::Covisibility}) {
-    for (bool refine : {false, true}) {
+    for (LogDetRefinement refine : {LogDetRefinement::None, LogDetRefinement::NaturalGradient,
+                                    LogDetRefinement::BlockCoordinate}) {
+      if (refine == LogDetRefinement::BlockCoordinate && info.dim() > kDenseBarrierDof) continue;
       const auto t0 = Clock::now();
       const SparsifiedGraph g = sparsifyInformation(info, s, t, refine);
-      std::printf("%s: %-12s %-9s %4zu edges, dim %5d, KL %10.3f nats (%.4f per DoF), %8.3f s\n",
-                  what, toString(t), refine ? "log-det" : "uniform", g.edges, g.dof, g.kl,
-                  g.kl / g.dof, since(t0));
+      std::printf("%s: %-12s %-8s %4zu edges, dim %5d, KL %10.3f nats (%.4f per DoF), %8.3f s\n",
+                  what, toString(t), refineName(refine), g.edges, g.dof, g.kl, g.kl / g.dof,
+                  since(t0));
     }
   }
 }

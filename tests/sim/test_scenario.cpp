@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include "dbacov/core/errors.h"
 #include "dbacov/sim/scenario.h"
@@ -192,6 +193,60 @@ TEST(Scenario, IsReproducibleAndRedrawsOnlyTheNoisePerRun) {
   EXPECT_NE(Scenario(c).simulate(0, 4).snapshot.weight, a.snapshot.weight);
 }
 
+// Edge persistence: an edge's confidences and target errors are the same in every snapshot that
+// holds it (and still redrawn per run); snapshot persistence redraws them per snapshot. The
+// errors of persistent edges still carry the variance the confidences claim.
+TEST(Scenario, EdgePersistenceSharesAnEdgesFlowsAcrossSnapshots) {
+  ScenarioConfig c;
+  c.camera.H = 12;
+  c.camera.W = 16;
+  c.weight_scale = 25;
+  c.solve = false;
+  c.trajectory.num_keyframes = 12;
+  auto edgePlanes = [](const Snapshot& s) {
+    std::map<std::pair<int, int>, std::pair<std::vector<float>, std::vector<float>>> m;
+    const std::size_t n = 2 * s.pixelsPerFrame();
+    for (int e = 0; e < s.numEdges(); ++e)
+      m[{static_cast<int>(s.ii[e]), static_cast<int>(s.jj[e])}] = {
+          std::vector<float>(s.targetPlane(e, 0), s.targetPlane(e, 0) + n),
+          std::vector<float>(s.weightPlane(e, 0), s.weightPlane(e, 0) + n)};
+    return m;
+  };
+  for (auto persistence : {NoiseModel::Persistence::Snapshot, NoiseModel::Persistence::Edge}) {
+    c.noise.persistence = persistence;
+    const Scenario sc(c);
+    const auto a = edgePlanes(sc.simulate(1, 0).snapshot),
+               b = edgePlanes(sc.simulate(2, 0).snapshot);
+    const auto other_run = edgePlanes(sc.simulate(2, 1).snapshot);
+    int shared = 0, same_targets = 0, same_weights = 0;
+    for (const auto& [ij, planes] : a) {
+      const auto it = b.find(ij);
+      if (it == b.end()) continue;
+      ++shared;
+      same_targets += planes.first == it->second.first;
+      same_weights += planes.second == it->second.second;
+      EXPECT_NE(it->second.first, other_run.at(ij).first) << "a new run redraws the errors";
+    }
+    ASSERT_GT(shared, 5);
+    if (persistence == NoiseModel::Persistence::Edge) {
+      EXPECT_EQ(same_targets, shared);
+      EXPECT_EQ(same_weights, shared);
+    } else {
+      EXPECT_EQ(same_targets, 0);
+      EXPECT_EQ(same_weights, 0);
+    }
+  }
+  c.noise.persistence = NoiseModel::Persistence::Edge;
+  const Scenario sc(c);
+  double s2 = 0;
+  std::size_t n = 0;
+  for (std::uint64_t run = 0; run < 3; ++run)
+    for (int axis = 0; axis < 2; ++axis)
+      for (const auto& edge : normalizedErrors(sc, sc.simulate(0, run), axis))
+        for (const auto& [p, z] : edge) s2 += z * z, ++n;
+  EXPECT_NEAR(s2 / n, 1.0, 4 * std::sqrt(2.0 / n)) << n << " samples";
+}
+
 TEST(Scenario, RejectsInvalidConfigurations) {
   ScenarioConfig c = tinyWhole();
   c.mode = SimulationMode::SlidingWindow;
@@ -228,6 +283,7 @@ TEST(ScenarioJson, RoundTripsEverySetting) {
   c.noise.type = NoiseModel::Type::Correlated;
   c.noise.correlation_length_px = 4.5;
   c.noise.amplitude = 0.5;
+  c.noise.persistence = NoiseModel::Persistence::Edge;
   c.gauge.type = GaugeOptions::Type::Minimal;
   c.perturbation.rotation = 0.03;
   c.solver.max_iterations = 7;
@@ -239,6 +295,7 @@ TEST(ScenarioJson, RoundTripsEverySetting) {
   EXPECT_EQ(back.seed, 99u);
   EXPECT_EQ(back.scene.boxes.size(), 1u);
   EXPECT_EQ(back.noise.correlation_length_px, 4.5);
+  EXPECT_EQ(back.noise.persistence, NoiseModel::Persistence::Edge);
   EXPECT_EQ(*back.camera.fx, 33.0);
   EXPECT_EQ(back.solver.max_iterations, 7);
 }

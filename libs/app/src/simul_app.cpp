@@ -43,8 +43,11 @@ first one and the true distance to the second). So the estimate lives in the tru
 and `dba-covariance --weight-scale X [--gauge G]` with the same X and gauge gives covariances that
 are consistent for white noise (absolute NEES is meaningful).
 Sliding window: snapshot s holds keyframes 0..s+W-1 and edges among the last W. Whole: one snapshot.
-Every snapshot redraws its noise (DROID re-predicts targets); --run selects the noise draw (Monte
-Carlo runs of one scenario share the geometry and confidences). Seeded and reproducible.
+Every snapshot redraws its confidences and noise (--noise-persistence snapshot, the default), or an
+edge's are drawn once and shared by every snapshot that holds it (--noise-persistence edge: DROID
+predicts the same flow again for the same pair of images, so its overlapping windows share their
+measurements). --run selects the noise draw (Monte Carlo runs of one scenario share the geometry
+and confidences). Seeded and reproducible.
 Exit status: 0 success, 1 when a snapshot or output failed (the others are still written), 2 on
 bad usage.)";
 

@@ -80,6 +80,17 @@ std::string toString(NoiseModel::Type t) {
   return t == NoiseModel::Type::White ? "white" : "correlated";
 }
 
+NoiseModel::Persistence parseNoisePersistence(const std::string& name) {
+  if (name == "snapshot") return NoiseModel::Persistence::Snapshot;
+  if (name == "edge") return NoiseModel::Persistence::Edge;
+  throw std::invalid_argument("unknown noise persistence '" + name +
+                              "', expected snapshot or edge");
+}
+
+std::string toString(NoiseModel::Persistence p) {
+  return p == NoiseModel::Persistence::Snapshot ? "snapshot" : "edge";
+}
+
 UnitNoiseField::UnitNoiseField(const NoiseModel& model, int H, int W)
     : model_(model), H_(H), W_(W) {
   model_.validate();

@@ -46,6 +46,10 @@ enum Purpose : std::uint64_t {
   kDepthNoise = 6,     ///< the readings' noise (redrawn per run)
   kTexture = 7,        ///< the room's texture (fixed by the scenario)
   kImageNoise = 8,     ///< the rendered images' sensor noise (redrawn per run)
+  // Persistence::Edge: one stream per edge (keyed by its keyframes), not per snapshot.
+  kEdgeWeights = 9,
+  kEdgeNoise = 10,
+  kEdgeExtraNoise = 11,
 };
 
 /// Stereo: the rig transform Y = T·X from the left camera to the right one.
@@ -253,8 +257,10 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
   const int E = snap.numEdges();
   snap.target.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
   snap.weight.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
+  const bool per_edge = c.noise.persistence == NoiseModel::Persistence::Edge;
   // Image-based targets (image_flow.h): every camera rendered once per (snapshot, run), keyed by
-  // keyframe (left camera) or −1 − keyframe (its right camera, stereo).
+  // keyframe (left camera) or −1 − keyframe (its right camera, stereo); with edge persistence
+  // its sensor noise is the same in every snapshot (one image per keyframe and run).
   std::unique_ptr<FlowEstimator> estimator;
   std::optional<ProceduralTexture> texture;
   std::map<int, GrayImage> images;
@@ -268,14 +274,22 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
     auto it = images.find(key);
     if (it == images.end())
       it = images
-               .emplace(key, renderImage(c.scene, *texture, T_wc, K_render, rs * H, rs * W,
-                                         c.flow.image_noise,
-                                         mixSeed(c.seed, kImageNoise, s, run * 1000003 + key)))
+               .emplace(key,
+                        renderImage(
+                            c.scene, *texture, T_wc, K_render, rs * H, rs * W, c.flow.image_noise,
+                            mixSeed(c.seed, kImageNoise, per_edge ? 0 : s, run * 1000003 + key)))
                .first;
     return it->second;
   };
   for (int e = 0; e < E; ++e) {
     const int i = static_cast<int>(snap.ii[e]), j = static_cast<int>(snap.jj[e]);
+    if (per_edge) {  // the same draws for this (i, j) in every snapshot of the run
+      const std::uint64_t key =
+          (static_cast<std::uint64_t>(i) << 32) ^ static_cast<std::uint32_t>(j);
+      rng_w.seed(mixSeed(c.seed, kEdgeWeights, key));
+      rng_n.seed(mixSeed(c.seed, kEdgeNoise, key, run));
+      rng_x.seed(mixSeed(c.seed, kEdgeExtraNoise, key, run));
+    }
     // The camera that sees edge e's targets: keyframe j, or keyframe i's right camera (stereo).
     const Eigen::Isometry3d T_wc_j = i == j ? T_wc_true_[i] * T_rig.inverse() : T_wc_true_[j];
     const Eigen::Isometry3d T_ji = T_wc_j.inverse() * T_wc_true_[i];

@@ -290,6 +290,12 @@ std::vector<ScenarioField> makeSchema() {
       "per edge and axis)",
       {"white", "correlated"}, parseNoiseType, toString,
       [](C & c) -> auto& { return c.noise.type; }));
+  s.push_back(enumField<NoiseModel::Persistence>(
+      "noise.persistence", "--noise-persistence",
+      "snapshot (every snapshot redraws its edges' confidences and errors) or edge (an edge's are "
+      "drawn once and shared by every snapshot that holds it, as DROID's windows share flows)",
+      {"snapshot", "edge"}, parseNoisePersistence, toString,
+      [](C & c) -> auto& { return c.noise.persistence; }));
   s.push_back(field<double>(
       "noise.correlation_length_px", "--correlation-length",
       "Correlated noise: correlation length, pixels",

@@ -45,6 +45,13 @@ std::string toString(WeightModel::Distribution d);
 struct NoiseModel {
   enum class Type { White, Correlated };
   Type type = Type::White;
+  /// Which flows share their errors. Snapshot: every snapshot redraws the confidences and target
+  /// errors of all its edges (independent measurements per snapshot). Edge: an edge's
+  /// confidences and errors are drawn once per run and are the same in every snapshot that holds
+  /// the edge, as DROID's network predicts the same flow again for the same pair of images (its
+  /// windows then share their measurements: what issue 15's "counted once" is about).
+  enum class Persistence { Snapshot, Edge };
+  Persistence persistence = Persistence::Snapshot;
   double correlation_length_px = 3.0;  ///< ℓ (Correlated)
   /// Multiplies every target error: 1 = the variance the weights claim (consistent), 0 = exact
   /// targets, 2 = four times the claimed variance.
@@ -68,6 +75,9 @@ struct NoiseModel {
 /// "white", "correlated"; throws std::invalid_argument otherwise.
 NoiseModel::Type parseNoiseType(const std::string& name);
 std::string toString(NoiseModel::Type t);
+/// "snapshot", "edge"; throws std::invalid_argument otherwise.
+NoiseModel::Persistence parseNoisePersistence(const std::string& name);
+std::string toString(NoiseModel::Persistence p);
 
 /// Unit-variance noise fields of one H×W grid (C order) under a noise model.
 class UnitNoiseField {
