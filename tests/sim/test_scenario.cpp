@@ -3,6 +3,7 @@
 // JSON configurations (sim/scenario_json.h, share/sim/*.json).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -247,6 +248,40 @@ TEST(Scenario, EdgePersistenceSharesAnEdgesFlowsAcrossSnapshots) {
   EXPECT_NEAR(s2 / n, 1.0, 4 * std::sqrt(2.0 / n)) << n << " samples";
 }
 
+// --gauge-hold estimate: a snapshot's gauge keyframes are held exactly at the previous snapshot's
+// estimates (not at the truth, which they then differ from), so the window's frame and scale are
+// inherited as in DROID's frontend; without the previous snapshot it is refused.
+TEST(Scenario, GaugeHeldAtThePreviousEstimate) {
+  ScenarioConfig c;
+  c.camera.H = 12;
+  c.camera.W = 16;
+  c.weight_scale = 25;
+  c.trajectory.num_keyframes = 11;
+  c.gauge_hold = GaugeHold::Estimate;
+  const Scenario sc(c);
+  const SimulatedSnapshot s0 = sc.simulate(0, 3);
+  const SimulatedSnapshot s1 = sc.simulate(1, 3, &s0.snapshot);
+  const auto& ii = s1.snapshot.ii;
+  const int ga = static_cast<int>(*std::min_element(ii.begin(), ii.end()));
+  ASSERT_EQ(ga, 1);
+  for (int g : {1, 2}) {
+    EXPECT_EQ(s1.snapshot.poses_cw.row(g), s0.snapshot.poses_cw.row(g)) << "gauge keyframe " << g;
+    // Keyframe 1 was snapshot 0's held gauge keyframe (at the truth); keyframe 2 its estimate.
+    const double off =
+        (s1.snapshot.T_wc(g).translation() - sc.groundTruth()[g].translation()).norm();
+    if (g == 1)
+      EXPECT_LT(off, 1e-6);
+    else
+      EXPECT_GT(off, 1e-6);
+  }
+  EXPECT_TRUE(s1.solver.converged());
+  EXPECT_THROW(sc.simulate(1, 3), std::invalid_argument);
+  // Held at the truth (the default), the same snapshot's gauge keyframes are the true poses.
+  c.gauge_hold = GaugeHold::Truth;
+  const SimulatedSnapshot t1 = Scenario(c).simulate(1, 3);
+  EXPECT_LT((t1.snapshot.T_wc(2).translation() - sc.groundTruth()[2].translation()).norm(), 1e-6);
+}
+
 TEST(Scenario, RejectsInvalidConfigurations) {
   ScenarioConfig c = tinyWhole();
   c.mode = SimulationMode::SlidingWindow;
@@ -284,6 +319,7 @@ TEST(ScenarioJson, RoundTripsEverySetting) {
   c.noise.correlation_length_px = 4.5;
   c.noise.amplitude = 0.5;
   c.noise.persistence = NoiseModel::Persistence::Edge;
+  c.gauge_hold = GaugeHold::Estimate;
   c.gauge.type = GaugeOptions::Type::Minimal;
   c.perturbation.rotation = 0.03;
   c.solver.max_iterations = 7;
@@ -296,6 +332,7 @@ TEST(ScenarioJson, RoundTripsEverySetting) {
   EXPECT_EQ(back.scene.boxes.size(), 1u);
   EXPECT_EQ(back.noise.correlation_length_px, 4.5);
   EXPECT_EQ(back.noise.persistence, NoiseModel::Persistence::Edge);
+  EXPECT_EQ(back.gauge_hold, GaugeHold::Estimate);
   EXPECT_EQ(*back.camera.fx, 33.0);
   EXPECT_EQ(back.solver.max_iterations, 7);
 }

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include <CLI/CLI.hpp>
 
@@ -95,12 +96,14 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
     std::unique_ptr<mrpt_bridge::SnapshotRawlogWriter> rawlog;
     if (!rawlog_path.empty()) rawlog = mrpt_bridge::mrptBridge().createSnapshotRawlog(rawlog_path);
     Progress progress(err, sc.numSnapshots(), !quiet);
+    // --gauge-hold estimate: each snapshot is held where the last one that succeeded left it.
+    std::optional<Snapshot> previous;
     for (int s = 0; s < sc.numSnapshots(); ++s) {
       char name[64];
       std::snprintf(name, sizeof name, "snapshot_%04d.npz", s);
       progress.step(name);
       try {
-        sim::SimulatedSnapshot sim = sc.simulate(s, run);
+        sim::SimulatedSnapshot sim = sc.simulate(s, run, previous ? &*previous : nullptr);
         max_iterations = std::max(max_iterations, sim.solver.iterations);
         if (config.solve && !sim.solver.converged()) {
           ++not_converged;
@@ -108,6 +111,7 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
           err << "simul-dba: warning: snapshot " << s << ": the DBA solve did not converge ("
               << sim.solver.brief() << ")\n";
         }
+        if (config.gauge_hold == sim::GaugeHold::Estimate) previous = sim.snapshot;
         if (!no_npz) io::saveSnapshotNpz(out_dir + "/" + name, sim.snapshot);
         if (rawlog) {
           const double time = keyframeTime(sim.snapshot, newestKeyframe(sim.snapshot));

@@ -79,6 +79,16 @@ std::string toString(SimulationMode m) {
   return m == SimulationMode::SlidingWindow ? "sliding-window" : "whole";
 }
 
+GaugeHold parseGaugeHold(const std::string& name) {
+  if (name == "truth") return GaugeHold::Truth;
+  if (name == "estimate") return GaugeHold::Estimate;
+  throw std::invalid_argument("unknown gauge hold '" + name + "', expected truth or estimate");
+}
+
+std::string toString(GaugeHold h) {
+  return h == GaugeHold::Truth ? "truth" : "estimate";
+}
+
 SensorMode parseSensorMode(const std::string& name) {
   return parseEnum<SensorMode>(name);
 }
@@ -204,7 +214,7 @@ double Scenario::keyframeTime(int k) const {
   return config_.time.start_time + config_.time.frame_interval * k / config_.time.fps;
 }
 
-SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
+SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run, const Snapshot* previous) const {
   if (s < 0 || s >= numSnapshots())
     throw std::invalid_argument("scenario: snapshot " + std::to_string(s) + " out of range");
   const ScenarioConfig& c = config_;
@@ -377,6 +387,25 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
   const int ga = static_cast<int>(*sources.begin()),
             gb = droid_gauge ? -1 : static_cast<int>(*std::next(sources.begin()));
   const bool minimal = c.gauge.type == GaugeOptions::Type::Minimal;
+  const bool chained =
+      c.gauge_hold == GaugeHold::Estimate && s > 0 && c.mode == SimulationMode::SlidingWindow;
+  std::set<std::int64_t> previous_graph;
+  if (chained) {
+    if (!previous || previous->numKeyframes() > N)
+      throw std::invalid_argument("scenario: snapshot " + std::to_string(s) +
+                                  ": --gauge-hold estimate needs snapshot " +
+                                  std::to_string(s - 1) + "'s result");
+    for (std::int64_t k : previous->graphKeyframes()) previous_graph.insert(k);
+    for (int g : {ga, gb})
+      if (g >= 0 && !previous_graph.count(g))
+        throw std::invalid_argument("scenario: snapshot " + std::to_string(s) +
+                                    ": gauge keyframe " + std::to_string(g) +
+                                    " has no estimate in snapshot " + std::to_string(s - 1));
+    // Keyframes outside this graph keep what the previous snapshot last held for them.
+    // (The stored rows are copied: a round trip through T_wc would change their last bits.)
+    for (int k = 0; k < previous->numKeyframes(); ++k)
+      snap.poses_cw.row(k) = previous->poses_cw.row(k);
+  }
   for (int k : snap.graphKeyframes()) {
     Vector6d xi;
     for (int q = 0; q < 6; ++q)
@@ -384,6 +413,18 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run) const {
     float* d = &snap.disps[static_cast<std::size_t>(k) * HW];
     for (int p = 0; p < HW; ++p)
       d[p] = static_cast<float>(d[p] * std::exp(c.perturbation.inverse_depth * n01(rng_p)));
+    if (chained) {
+      // Held (gauge) or started at the previous estimate; a new keyframe from its predecessor's
+      // estimate moved by the true motion, perturbed, as DROID starts a keyframe from the last.
+      if (previous_graph.count(k)) {
+        if (k == ga || k == gb) continue;  // held exactly where the previous snapshot left it
+        snap.setT_wc(k, Eigen::Isometry3d(previous->T_wc(k) * expSE3(xi)));
+      } else {
+        const Eigen::Isometry3d motion = T_wc_true_[k - 1].inverse() * T_wc_true_[k];
+        snap.setT_wc(k, Eigen::Isometry3d(snap.T_wc(k - 1) * motion * expSE3(xi)));
+      }
+      continue;
+    }
     if (k == ga || (k == gb && !minimal)) continue;
     Eigen::Isometry3d T = T_wc_true_[k] * expSE3(xi);
     if (k == gb) {  // minimal gauge: the scale keyframe starts at its true distance

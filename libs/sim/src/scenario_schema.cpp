@@ -347,6 +347,13 @@ std::vector<ScenarioField> makeSchema() {
     };
     s.push_back(g);
   }
+  s.push_back(enumField<GaugeHold>(
+      "gauge.hold", "--gauge-hold",
+      "Sliding window: hold each snapshot's gauge keyframes at the truth (default: absolute NEES "
+      "per snapshot) or at the previous snapshot's estimates (DROID's frontend: frame and scale "
+      "drift between windows; compare whole-sequence results with the ground truth)",
+      {"truth", "estimate"}, parseGaugeHold, toString,
+      [](C & c) -> auto& { return c.gauge_hold; }));
   s.push_back(field<double>(
       "gauge.sigma_rot", "", "", [](C & c) -> auto& { return c.gauge.sigma_rot; }));
   s.push_back(field<double>(

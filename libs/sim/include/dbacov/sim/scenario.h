@@ -67,6 +67,18 @@ enum class SimulationMode { SlidingWindow, WholeTrajectory };
 SimulationMode parseSimulationMode(const std::string& name);
 std::string toString(SimulationMode m);
 
+/// Where a sliding-window snapshot's gauge keyframes are held. Truth: at their true poses (the
+/// default: each snapshot's estimate lives in the true frame and scale, so its absolute NEES is
+/// meaningful). Estimate: at the previous snapshot's estimates of them, as DROID's frontend
+/// holds them: the frame and the monocular scale then drift from window to window as in DROID,
+/// and a snapshot's error is relative to the gauge it inherited (only a whole-sequence result,
+/// held at the first snapshot's truth, compares with the ground truth). Simulated in order,
+/// each snapshot from the one before (Scenario::simulate's `previous`).
+enum class GaugeHold { Truth, Estimate };
+/// "truth", "estimate"; throws std::invalid_argument otherwise.
+GaugeHold parseGaugeHold(const std::string& name);
+std::string toString(GaugeHold h);
+
 struct InitialPerturbation {
   double translation = 0.02;    ///< σ_t, metres (per axis of ρ)
   double rotation = 0.01;       ///< σ_r, radians (per axis of φ)
@@ -156,6 +168,7 @@ struct ScenarioConfig {
   /// graph only (t0 = that keyframe + 1, DROID's rule): stereo or RGB-D only, since monocular DBA
   /// leaves the scale free.
   GaugeOptions gauge;
+  GaugeHold gauge_hold = GaugeHold::Truth;
   InitialPerturbation perturbation;
   bool solve = true;  ///< false: the stored state is the truth (no solve)
   DbaSolverOptions solver = defaultScenarioSolver();
@@ -194,8 +207,12 @@ class Scenario {
   const std::vector<std::pair<int, int>>& edges(int s) const { return edges_.at(s); }
 
   /// Snapshot s (0-based) of noise draw `run`; `id` = s. Deterministic. Throws NumericalError
-  /// when the solve fails (an unobservable variable).
-  SimulatedSnapshot simulate(int s, std::uint64_t run = 0) const;
+  /// when the solve fails (an unobservable variable). With GaugeHold::Estimate and s > 0,
+  /// `previous` must be snapshot s − 1's result: its estimates hold the gauge keyframes and start
+  /// the keyframes it has (a new keyframe starts from its predecessor's estimate moved by the true
+  /// motion, perturbed); std::invalid_argument when it is missing or lacks a gauge keyframe.
+  SimulatedSnapshot simulate(int s, std::uint64_t run = 0,
+                             const Snapshot* previous = nullptr) const;
 
  private:
   ScenarioConfig config_;
