@@ -399,6 +399,8 @@ TEST(EvaluateApp, BadUsageAndBadInputs) {
               "--monte-carlo only");
   expectUsage({"--rawlog", fx.dir.file("poses.rawlog"), "--gt", "x", "--align", "sim3"},
               "a rawlog has no joint");
+  expectUsage({"--monte-carlo", "2", "--gauge-hold", "estimate"},
+              "needs each snapshot's gauge held at the truth");
   // Inputs that fail: exit 1, naming the file.
   auto args = fx.tableArgs();
   args[5] = fx.dir.file("missing.tum");

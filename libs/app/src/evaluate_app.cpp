@@ -321,6 +321,8 @@ int runEvaluate(const EvaluateOptions& o, std::ostream& out, std::ostream& err) 
   try {
     checkUsage(o);
     if (o.monte_carlo > 0) config = o.scenario.resolve();
+    if (config && config->gauge_hold == sim::GaugeHold::Estimate)
+      throw std::invalid_argument(sim::kMonteCarloNeedsTruthGauge);
   } catch (const std::exception& e) {
     err << "dba-evaluate: " << e.what() << "\nRun with --help for usage.\n";
     return 2;

@@ -45,6 +45,8 @@ MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs
                                const DbaOptions& options, PairSelection pairs,
                                const std::function<void(int, int)>& progress,
                                const SelfCalibrationOptions* self_calibration) {
+  if (scenario.config().gauge_hold == GaugeHold::Estimate)
+    throw std::invalid_argument(kMonteCarloNeedsTruthGauge);
   MonteCarloResult r;
   const int S = scenario.numSnapshots(), total = runs * S;
   int done = 0;

@@ -393,14 +393,15 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run, const Snapshot* p
   if (chained) {
     if (!previous || previous->numKeyframes() > N)
       throw std::invalid_argument("scenario: snapshot " + std::to_string(s) +
-                                  ": --gauge-hold estimate needs snapshot " +
-                                  std::to_string(s - 1) + "'s result");
+                                  ": --gauge-hold estimate needs the previous snapshot's result (" +
+                                  std::to_string(s - 1) + " or earlier)");
     for (std::int64_t k : previous->graphKeyframes()) previous_graph.insert(k);
     for (int g : {ga, gb})
       if (g >= 0 && !previous_graph.count(g))
         throw std::invalid_argument("scenario: snapshot " + std::to_string(s) +
                                     ": gauge keyframe " + std::to_string(g) +
-                                    " has no estimate in snapshot " + std::to_string(s - 1));
+                                    " has no estimate in the previous snapshot (id " +
+                                    std::to_string(previous->id.value_or(-1)) + ")");
     // Keyframes outside this graph keep what the previous snapshot last held for them.
     // (The stored rows are copied: a round trip through T_wc would change their last bits.)
     for (int k = 0; k < previous->numKeyframes(); ++k)

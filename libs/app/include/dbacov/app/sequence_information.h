@@ -132,7 +132,7 @@ namespace dbacov::app {
 /// 6×6 block exactly at a time (closed form, dense inverses: O(n²|E|) per sweep; 29.1 nats,
 /// 85 %); Auto = BlockCoordinate up to kDenseBarrierDof, NaturalGradient beyond.
 enum class LogDetRefinement { None, NaturalGradient, BlockCoordinate, Auto };
-/// Largest dim Λ for which Auto uses the dense block-coordinate ascent (≈ 100 keyframes: ~20 s).
+/// Largest dim Λ for which Auto uses the dense block-coordinate ascent (≈ 100 keyframes: ≈ 12 s).
 constexpr int kDenseBarrierDof = 600;
 
 struct SparsifiedGraph {

@@ -27,6 +27,13 @@
 
 namespace dbacov::sim {
 
+/// Why runMonteCarlo refuses GaugeHold::Estimate (also dba-evaluate's usage error).
+inline constexpr const char* kMonteCarloNeedsTruthGauge =
+    "--gauge-hold estimate (gauge.hold): the Monte Carlo compares every snapshot with the ground "
+    "truth, which needs each snapshot's gauge held at the truth; for whole-sequence studies with "
+    "the gauge held at the previous estimates run simul-dba and compare the sequence's result "
+    "(scripts/fusion_study.py --gauge-hold estimate)";
+
 enum class PairSelection { Consecutive, CoVisible };
 
 struct EvaluationSamples {

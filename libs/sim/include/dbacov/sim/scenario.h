@@ -208,9 +208,13 @@ class Scenario {
 
   /// Snapshot s (0-based) of noise draw `run`; `id` = s. Deterministic. Throws NumericalError
   /// when the solve fails (an unobservable variable). With GaugeHold::Estimate and s > 0,
-  /// `previous` must be snapshot s − 1's result: its estimates hold the gauge keyframes and start
-  /// the keyframes it has (a new keyframe starts from its predecessor's estimate moved by the true
-  /// motion, perturbed); std::invalid_argument when it is missing or lacks a gauge keyframe.
+  /// `previous` is the last earlier snapshot that was simulated (simul-dba: s − 1, or the one
+  /// before it when s − 1 failed): its estimates hold the gauge keyframes (two-pose: both, bit
+  /// for bit; minimal: the first, the second starts there and keeps its distance; droid: the
+  /// first), the other keyframes it has start from its estimates perturbed, a new keyframe from
+  /// its predecessor's estimate moved by the true motion, perturbed; the inverse depths start from
+  /// the perturbed truth as always. std::invalid_argument when it is missing or lacks a gauge
+  /// keyframe.
   SimulatedSnapshot simulate(int s, std::uint64_t run = 0,
                              const Snapshot* previous = nullptr) const;
 
