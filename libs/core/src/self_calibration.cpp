@@ -5,6 +5,7 @@
 #include "dbacov/core/self_calibration.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -92,6 +93,8 @@ DenseModel buildModel(const Snapshot& s, const DbaOptions& o) {
 }
 
 /// Per-edge sums of one pass.
+using Vector12d = Eigen::Matrix<double, 12, 1>;
+
 struct EdgeAccum {
   std::size_t pixels = 0, rows = 0;
   double sum_r2 = 0;  ///< Σ r², px²
@@ -180,6 +183,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
 
     // Rows of every edge, and the depth terms h, b of every pixel.
     std::vector<std::vector<Row>> rows(Q);
+    for (auto& r : rows) r.reserve(static_cast<std::size_t>(2 * HW));
     std::vector<double> h(HW, 0.0);
     Eigen::MatrixXd B = Eigen::MatrixXd::Zero(6 * T, HW);
     PixelFactorLinearization f;
@@ -207,6 +211,15 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       }
     }
 
+    // Every depth-reduced row is v_k = u_k − c_k B_p (u_k = √λ [J_i | J_j] on two slots, c_k =
+    // √λ J_d / h_p, B_p the pixel's depth column shared by all its rows), so the products with
+    // Σ are done once per source (ΣB) and per row on 12 entries, and the edge's 6T × 6T sums are
+    // a 12 × 12 block, a 12 × 6T cross term and one rank update over the edge's pixels, instead of
+    // dense 6T × rows products (≈ 10× fewer flops on DROID-sized windows).
+    const Eigen::MatrixXd SB = Sig * B;
+    Eigen::VectorXd bSb(HW);
+    for (int p = 0; p < HW; ++p) bSb[p] = B.col(p).dot(SB.col(p));
+
     std::vector<double> z[2];
     std::vector<char> mask[2];
     for (int q = 0; q < Q; ++q) {
@@ -214,50 +227,103 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       const std::vector<Row>& rq = rows[q];
       const int M = static_cast<int>(rq.size());
       if (M == 0) continue;
-      Eigen::MatrixXd V = Eigen::MatrixXd::Zero(6 * T, M);
-      Eigen::VectorXd sr(M), depth_lev = Eigen::VectorXd::Zero(M);
-      // Pixels of the edge (rows come pixel by pixel) for the depth's share D_e.
-      std::vector<int> first_row;
-      for (int k = 0; k < M; ++k) {
-        const Row& r = rq[k];
-        if (k == 0 || rq[k - 1].pixel != r.pixel) first_row.push_back(k);
-        const double sl = std::sqrt(r.lam);
-        V.col(k).segment<6>(0) = sl * r.Ji.transpose();
-        V.col(k).segment<6>(6 * tpos[q]) += sl * r.Jj.transpose();
-        if (h[r.pixel] > o.depth_info_eps) {
-          V.col(k) -= (sl * r.jd / h[r.pixel]) * B.col(r.pixel);
-          depth_lev[k] = r.lam * r.jd * r.jd / h[r.pixel];
-        }
-        sr[k] = sl * r.r;
-        a.sum_r2 += r.r * r.r;
+      // The 12 coordinates of u within the 6T of the source's slots (a repeated slot, the stereo
+      // edge (k, k), maps both halves onto slot 0: every sum below scatters by adding).
+      std::array<int, 12> idx;
+      for (int i = 0; i < 6; ++i) {
+        idx[i] = i;
+        idx[6 + i] = 6 * tpos[q] + i;
       }
+      Matrix12d S12;
+      for (int r = 0; r < 12; ++r)
+        for (int c = 0; c < 12; ++c) S12(r, c) = Sig(idx[r], idx[c]);
+      std::vector<int> first_row;  // pixels of the edge (rows come pixel by pixel)
+      for (int k = 0; k < M; ++k)
+        if (k == 0 || rq[k - 1].pixel != rq[k].pixel) first_row.push_back(k);
+      const int P = static_cast<int>(first_row.size());
+      first_row.push_back(M);
+      // The rows' u_k as columns (one GEMM each for Σ u uᵀ and uᵀΣ₁₂u instead of 12 × 12 per
+      // row), c_k, and the per-pixel sums.
+      Eigen::Matrix<double, 12, Eigen::Dynamic> Um(12, M);
+      Eigen::VectorXd sr(M), cr(M), lev(M);
+      Eigen::MatrixXd Acr(12, P), Bw(6 * T, P);  // Σ_k c_k u_k per pixel; √(Σ c_k²) B_p
+      Eigen::VectorXd gamma(P), hk(P);
+      Eigen::Matrix<double, 12, Eigen::Dynamic> alpha(12, P);  // Σ √λ J_d u_k per pixel
+      Eigen::VectorXd beta(P);                                 // Σ √λ J_d c_k per pixel
+      for (int pix = 0; pix < P; ++pix) {
+        const int px = rq[first_row[pix]].pixel;
+        const double hp = h[px];
+        const bool reduced = hp > o.depth_info_eps;
+        hk[pix] = hp;
+        Vector12d sb;
+        for (int i = 0; i < 12; ++i) sb[i] = SB(idx[i], px);
+        Vector12d acr = Vector12d::Zero(), al = Vector12d::Zero();
+        double w = 0, gam = 0, be = 0;
+        for (int k = first_row[pix]; k < first_row[pix + 1]; ++k) {
+          const Row& r = rq[k];
+          const double sl = std::sqrt(r.lam);
+          Um.col(k).head<6>() = sl * r.Ji.transpose();
+          Um.col(k).tail<6>() = sl * r.Jj.transpose();
+          const double c = reduced ? sl * r.jd / hp : 0.0;
+          cr[k] = c;
+          sr[k] = sl * r.r;
+          a.sum_r2 += r.r * r.r;
+          lev[k] = -2 * c * Um.col(k).dot(sb) + c * c * bSb[px] +
+                   (reduced ? r.lam * r.jd * r.jd / hp : 0.0);
+          acr += c * Um.col(k);
+          w += c * c;
+          gam += sr[k] * c;
+          if (reduced) {
+            al += sl * r.jd * Um.col(k);
+            be += sl * r.jd * c;
+          }
+        }
+        Acr.col(pix) = acr;
+        Bw.col(pix) = std::sqrt(w) * B.col(px);
+        gamma[pix] = gam;
+        alpha.col(pix) = al;
+        beta[pix] = be;
+      }
+      lev += ((S12 * Um).cwiseProduct(Um)).colwise().sum().transpose();
+      Matrix12d Auu = Matrix12d::Zero();
+      Auu.selfadjointView<Eigen::Lower>().rankUpdate(Um);
+      Auu = Auu.selfadjointView<Eigen::Lower>();
+      const Vector12d gu = Um * sr;
       a.rows = M;
-      a.pixels = first_row.size();
+      a.pixels = P;
       a.q = sr.squaredNorm();
-      const Eigen::VectorXd g = V * sr;
-      const Eigen::MatrixXd SV = Sig * V;
-      const Eigen::VectorXd lev = SV.cwiseProduct(V).colwise().sum().transpose() + depth_lev;
       a.lev = lev.sum();
+      Eigen::MatrixXd Bp(6 * T, P);  // the edge's pixels' depth columns
+      for (int pix = 0; pix < P; ++pix) Bp.col(pix) = B.col(rq[first_row[pix]].pixel);
+      // g = Σ sr_k v_k;  I = Σ v_k v_kᵀ = [Σ u uᵀ] − [Σ c u Bᵀ + transpose] + Σ (Σ c²) B Bᵀ.
+      Eigen::VectorXd g = -(Bp * gamma);
+      for (int i = 0; i < 12; ++i) g[idx[i]] += gu[i];
       Eigen::MatrixXd I = Eigen::MatrixXd::Zero(6 * T, 6 * T);
-      I.selfadjointView<Eigen::Lower>().rankUpdate(V);
+      I.selfadjointView<Eigen::Lower>().rankUpdate(Bw);
       I = I.selfadjointView<Eigen::Lower>();
+      const Eigen::MatrixXd cross = Acr * Bp.transpose();  // 12 × 6T
+      for (int i = 0; i < 12; ++i) {
+        I.row(idx[i]) -= cross.row(i);
+        I.col(idx[i]) -= cross.row(i).transpose();
+        for (int j = 0; j < 12; ++j) I(idx[i], idx[j]) += Auu(i, j);
+      }
       const Eigen::MatrixXd SI = Sig * I;
       a.tr_SI = SI.trace();
       a.tr_SISI = SI.cwiseProduct(SI.transpose()).sum();
       a.gSg = g.dot(Sig * g);
-      const int P = static_cast<int>(first_row.size());
-      Eigen::MatrixXd C = Eigen::MatrixXd::Zero(6 * T, P);
-      Eigen::VectorXd hk(P);
-      for (int k = 0, pix = -1; k < M; ++k) {
-        if (pix + 1 < P && first_row[pix + 1] == k) ++pix;
-        const Row& r = rq[k];
-        hk[pix] = h[r.pixel];
-        if (h[r.pixel] > o.depth_info_eps) C.col(pix) += std::sqrt(r.lam) * r.jd * V.col(k);
+      // The depth's share: C_p = Σ_k √λ J_d v_k = α_p − β_p B_p (pixels with depth information).
+      for (int pix = 0; pix < P; ++pix) {
+        if (!(hk[pix] > o.depth_info_eps)) continue;
+        const int px = rq[first_row[pix]].pixel;
+        const Vector12d al = alpha.col(pix);
+        double aSB = 0;
+        for (int i = 0; i < 12; ++i) aSB += al[i] * SB(idx[i], px);
+        a.tr_SD +=
+            (al.dot(S12 * al) - 2 * beta[pix] * aSB + beta[pix] * beta[pix] * bSb[px]) / hk[pix];
       }
-      for (int k = 0; k < P; ++k)
-        if (hk[k] > o.depth_info_eps) a.tr_SD += C.col(k).dot(Sig * C.col(k)) / hk[k];
       // The same statistic in the edge's own information metric: g_eᵀ I_e⁺ g_e, expectation
-      // rank(I_e) − tr(I_e⁺ D_e) − tr(Σ I_e).
+      // rank(I_e) − tr(I_e⁺ D_e) − tr(Σ I_e), with tr(I_e⁺ D_e) = tr(I_e⁺ X), X = Σ_p C_p C_pᵀ /
+      // h_p.
       if (info_metric) {
         const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(I);
         const Eigen::VectorXd& ev = eig.eigenvalues();
@@ -271,11 +337,14 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           }
         const Eigen::MatrixXd U = eig.eigenvectors() * inv.cwiseSqrt().asDiagonal();
         a.gIg = (U.transpose() * g).squaredNorm();
-        double tr_ID = 0;
-        const Eigen::MatrixXd UC = U.transpose() * C;
-        for (int k = 0; k < P; ++k)
-          if (hk[k] > o.depth_info_eps) tr_ID += UC.col(k).squaredNorm() / hk[k];
-        a.expected_info = rank - tr_ID - a.tr_SI;
+        Eigen::MatrixXd Cm = Eigen::MatrixXd::Zero(6 * T, P);  // C_p / √h_p, depth pixels only
+        for (int pix = 0; pix < P; ++pix) {
+          if (!(hk[pix] > o.depth_info_eps)) continue;
+          const double sh = 1.0 / std::sqrt(hk[pix]);
+          Cm.col(pix) = -beta[pix] * sh * Bp.col(pix);
+          for (int i = 0; i < 12; ++i) Cm(idx[i], pix) += sh * alpha(i, pix);
+        }
+        a.expected_info = rank - (U.transpose() * Cm).squaredNorm() - a.tr_SI;
       }
       for (int b = 0; b < T; ++b) a.g.segment<6>(6 * touched[b]) = g.segment<6>(6 * b);
       if (autocorr) {
