@@ -276,14 +276,16 @@ int maximizeLogDet(const SparseMatrix& Lf, const std::vector<EdgeData>& ed,
   return accepted;
 }
 
+constexpr double kMaxEdgeCondition = 1e-10;  // smallest / largest eigenvalue of an exported Ω
+
 /// The same barrier objective maximized by block-coordinate ascent, one edge's 6×6 information
 /// at a time and exactly. With the other edges fixed, H = H₋ₑ + JᵀΩJ and Λ − H = R₋ₑ − JᵀΩJ, and
 /// by the determinant lemma the objective is, up to a constant,
-///   logdet(P + Ω) + μ logdet(Q − Ω),   P = (J H₋ₑ⁻¹ Jᵀ)⁻¹ = Σ̂⁻¹ − Ω₀,  Q = (J R₋ₑ⁻¹ Jᵀ)⁻¹ = Ŝ⁻¹ +
-///   Ω₀
-/// (Σ̂, Ŝ the edge's relative covariance under H⁻¹ and (Λ − H)⁻¹ at the current Ω₀). In the basis
-/// V that makes VᵀQV = I and VᵀPV = D diagonal, Ω = V⁻ᵀ X V⁻¹ and the problem separates: each
-/// eigen-direction maximizes log(d + x) + μ log(1 − x) on [0, 1), x = (1 − μ d) / (1 + μ).
+///   logdet(P + Ω) + μ logdet(Q − Ω)
+/// with P = (J H₋ₑ⁻¹ Jᵀ)⁻¹ = Σ̂⁻¹ − Ω₀ and Q = (J R₋ₑ⁻¹ Jᵀ)⁻¹ = Ŝ⁻¹ + Ω₀ (Σ̂, Ŝ the edge's relative
+/// covariance under H⁻¹ and (Λ − H)⁻¹ at the current Ω₀). In the basis V that makes VᵀQV = I and
+/// VᵀPV = D diagonal, Ω = V⁻ᵀ X V⁻¹ and the problem separates: each eigen-direction maximizes
+/// log(d + x) + μ log(1 − x) on [0, 1), x = (1 − μ d) / (1 + μ).
 /// Dense inverses of H and Λ − H are kept up to date by rank-6 Woodbury updates and recomputed
 /// after every sweep. Unlike the natural-gradient steps it cannot stall where the objective is
 /// flat along one edge and steep along another, and it gains from every edge added to the
@@ -291,9 +293,6 @@ int maximizeLogDet(const SparseMatrix& Lf, const std::vector<EdgeData>& ed,
 /// barrier weight μ starts high (each edge may then take at most 1/(1 + μ) of its slack): started
 /// at μ = 1, the first sweep's greedy halvings left Λ − H with a condition number of 1e9 and the
 /// in-place inverses lost feasibility.
-
-constexpr double kMaxEdgeCondition = 1e-10;  // smallest / largest eigenvalue of an exported Ω
-
 int coordinateLogDet(const SparseMatrix& Lf, const std::vector<EdgeData>& ed_in,
                      std::vector<PoseGraphEdge>& edges) {
   const int n = static_cast<int>(Lf.rows());
