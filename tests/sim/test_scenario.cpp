@@ -26,6 +26,16 @@ ScenarioConfig tinyWhole(int keyframes = 4) {
   return c;
 }
 
+/// A small sliding-window scenario (12×16 grid, DROID's window of 8 unless changed).
+ScenarioConfig tinySliding(int keyframes, double weight_scale) {
+  ScenarioConfig c;
+  c.camera.H = 12;
+  c.camera.W = 16;
+  c.trajectory.num_keyframes = keyframes;
+  c.weight_scale = weight_scale;
+  return c;
+}
+
 /// Normalized target errors z = (target − true projection) · sqrt(weight_scale · w) of every
 /// weighted pixel, per edge in raster order (NaN-free), with the true projection computed from the
 /// scene's ray-cast point in world coordinates.
@@ -143,12 +153,8 @@ TEST(Scenario, WeightedPixelsAreVisibleInTheTargetView) {
 }
 
 TEST(Scenario, SlidingWindowSnapshotsFollowDroidsFrontendAndHoldTheGaugeAtTheTruth) {
-  ScenarioConfig c;
-  c.camera.H = 12;
-  c.camera.W = 16;
+  ScenarioConfig c = tinySliding(7, 400);
   c.window = 4;
-  c.trajectory.num_keyframes = 7;
-  c.weight_scale = 400;
   const Scenario sc(c);
   ASSERT_EQ(sc.numSnapshots(), 4);
   for (int s = 0; s < 4; ++s) {
@@ -198,12 +204,8 @@ TEST(Scenario, IsReproducibleAndRedrawsOnlyTheNoisePerRun) {
 // holds it (and still redrawn per run); snapshot persistence redraws them per snapshot. The
 // errors of persistent edges still carry the variance the confidences claim.
 TEST(Scenario, EdgePersistenceSharesAnEdgesFlowsAcrossSnapshots) {
-  ScenarioConfig c;
-  c.camera.H = 12;
-  c.camera.W = 16;
-  c.weight_scale = 25;
+  ScenarioConfig c = tinySliding(12, 25);
   c.solve = false;
-  c.trajectory.num_keyframes = 12;
   auto edgePlanes = [](const Snapshot& s) {
     std::map<std::pair<int, int>, std::pair<std::vector<float>, std::vector<float>>> m;
     const std::size_t n = 2 * s.pixelsPerFrame();
@@ -252,11 +254,7 @@ TEST(Scenario, EdgePersistenceSharesAnEdgesFlowsAcrossSnapshots) {
 // estimates (not at the truth, which they then differ from), so the window's frame and scale are
 // inherited as in DROID's frontend; without the previous snapshot it is refused.
 TEST(Scenario, GaugeHeldAtThePreviousEstimate) {
-  ScenarioConfig c;
-  c.camera.H = 12;
-  c.camera.W = 16;
-  c.weight_scale = 25;
-  c.trajectory.num_keyframes = 11;
+  ScenarioConfig c = tinySliding(11, 25);
   c.gauge_hold = GaugeHold::Estimate;
   const Scenario sc(c);
   const SimulatedSnapshot s0 = sc.simulate(0, 3);

@@ -188,6 +188,18 @@ SparseMatrix assembleExported(const std::vector<EdgeData>& ed, const std::vector
   return H;
 }
 
+/// J [M_aa M_ab; M_ba M_bb] Jᵀ of an edge, J = [Jf at slot a, Jt at slot b] (no Jf at the
+/// root), symmetrized; block(p, q) is M's 6×6 block between slots p and q.
+template <class Block>
+Matrix6d projectOnEdge(const EdgeData& e, const Block& block) {
+  Matrix6d C = e.Jt * block(e.b, e.b) * e.Jt.transpose();
+  if (e.a > 0) {
+    const Matrix6d Cab = e.Jf * block(e.a, e.b) * e.Jt.transpose();
+    C += e.Jf * block(e.a, e.a) * e.Jf.transpose() + Cab + Cab.transpose();
+  }
+  return 0.5 * (C + C.transpose());
+}
+
 /// Relative covariance J [Σ_aa Σ_ab; Σ_ba Σ_bb] Jᵀ of every edge under the inverse of A (full).
 std::vector<Matrix6d> edgeCovariances(const SparseMatrix& A, const std::vector<EdgeData>& ed) {
   std::unique_ptr<MarginalSolver> solver = makeCholmodMarginalSolver();
@@ -198,15 +210,8 @@ std::vector<Matrix6d> edgeCovariances(const SparseMatrix& A, const std::vector<E
     return v;
   };
   std::vector<Matrix6d> out;
-  for (const EdgeData& e : ed) {
-    Matrix6d C = e.Jt * solver->covariance(idx(e.b), idx(e.b)) * e.Jt.transpose();
-    if (e.a > 0) {
-      const Matrix6d Cab = solver->covariance(idx(e.a), idx(e.b));
-      C += e.Jf * solver->covariance(idx(e.a), idx(e.a)) * e.Jf.transpose() +
-           e.Jf * Cab * e.Jt.transpose() + e.Jt * Cab.transpose() * e.Jf.transpose();
-    }
-    out.push_back(0.5 * (C + C.transpose()));
-  }
+  auto block = [&](int p, int q) { return Matrix6d(solver->covariance(idx(p), idx(q))); };
+  for (const EdgeData& e : ed) out.push_back(projectOnEdge(e, block));
   return out;
 }
 
@@ -317,16 +322,10 @@ int coordinateLogDet(const SparseMatrix& Lf, const std::vector<EdgeData>& ed_in,
     Ri = lr.solve(I);
     return true;
   };
-  // J M Jᵀ (6×6) and M Jᵀ (n×6) of an edge, J = [Jf at slot a, Jt at slot b] (no Jf at the root).
+  // J M Jᵀ (6×6, projectOnEdge) and M Jᵀ (n×6) of an edge.
   auto project = [](const Eigen::MatrixXd& M, const EdgeData& e) {
-    const int ob = 6 * (e.b - 1);
-    Matrix6d C = e.Jt * M.block<6, 6>(ob, ob) * e.Jt.transpose();
-    if (e.a > 0) {
-      const int oa = 6 * (e.a - 1);
-      const Matrix6d Cab = e.Jf * M.block<6, 6>(oa, ob) * e.Jt.transpose();
-      C += e.Jf * M.block<6, 6>(oa, oa) * e.Jf.transpose() + Cab + Cab.transpose();
-    }
-    return Matrix6d(0.5 * (C + C.transpose()));
+    return projectOnEdge(
+        e, [&](int p, int q) -> Matrix6d { return M.block<6, 6>(6 * (p - 1), 6 * (q - 1)); });
   };
   auto timesJt = [](const Eigen::MatrixXd& M, const EdgeData& e) {
     Eigen::MatrixXd U = M.middleCols<6>(6 * (e.b - 1)) * e.Jt.transpose();

@@ -246,7 +246,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       // row), c_k, and the per-pixel sums.
       Eigen::Matrix<double, 12, Eigen::Dynamic> Um(12, M);
       Eigen::VectorXd sr(M), cr(M), lev(M);
-      Eigen::MatrixXd Acr(12, P), Bw(6 * T, P);  // Σ_k c_k u_k per pixel; √(Σ c_k²) B_p
+      Eigen::MatrixXd Acr(12, P), Bp(6 * T, P);  // Σ_k c_k u_k per pixel; the pixels' B_p
+      Eigen::VectorXd wsq(P);                    // √(Σ c_k²) per pixel
       Eigen::VectorXd gamma(P), hk(P);
       Eigen::Matrix<double, 12, Eigen::Dynamic> alpha(12, P);  // Σ √λ J_d u_k per pixel
       Eigen::VectorXd beta(P);                                 // Σ √λ J_d c_k per pixel
@@ -279,7 +280,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           }
         }
         Acr.col(pix) = acr;
-        Bw.col(pix) = std::sqrt(w) * B.col(px);
+        Bp.col(pix) = B.col(px);
+        wsq[pix] = std::sqrt(w);
         gamma[pix] = gam;
         alpha.col(pix) = al;
         beta[pix] = be;
@@ -293,13 +295,11 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       a.pixels = P;
       a.q = sr.squaredNorm();
       a.lev = lev.sum();
-      Eigen::MatrixXd Bp(6 * T, P);  // the edge's pixels' depth columns
-      for (int pix = 0; pix < P; ++pix) Bp.col(pix) = B.col(rq[first_row[pix]].pixel);
       // g = Σ sr_k v_k;  I = Σ v_k v_kᵀ = [Σ u uᵀ] − [Σ c u Bᵀ + transpose] + Σ (Σ c²) B Bᵀ.
       Eigen::VectorXd g = -(Bp * gamma);
       for (int i = 0; i < 12; ++i) g[idx[i]] += gu[i];
       Eigen::MatrixXd I = Eigen::MatrixXd::Zero(6 * T, 6 * T);
-      I.selfadjointView<Eigen::Lower>().rankUpdate(Bw);
+      I.selfadjointView<Eigen::Lower>().rankUpdate(Bp * wsq.asDiagonal());
       I = I.selfadjointView<Eigen::Lower>();
       const Eigen::MatrixXd cross = Acr * Bp.transpose();  // 12 × 6T
       for (int i = 0; i < 12; ++i) {
