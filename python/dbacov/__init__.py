@@ -68,11 +68,14 @@ def Covariance(snapshot, preset="droid", **options):
     weight_scale, gauge ("two-pose" | "minimal" | "droid"), gauge_sigma_rot, gauge_sigma_trans,
     near, far, min_depth_ratio, sensor_depth_weight, solver ("sparse" | "dense"), ordering,
     threads; depth_sigma=True keeps what inverse_depth_sigma needs. Self-calibration as
-    --self-calibrate: self_calibrate=True, self_calibrate_method ("score" (default) | "vce" |
-    "autocorr" | "sandwich"; implies self_calibrate), self_calibrate_iterations (1..20);
+    --self-calibrate: self_calibrate=True, self_calibrate_method ("nuisance" (default) |
+    "score" | "vce" | "autocorr" | "sandwich"; implies self_calibrate), self_calibrate_iterations
+    (1..20), self_calibrate_nodes (nuisance's field: 0 = affine, 2..8 = affine + G x G spline,
+    default 4);
     converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one).
     The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,
-    edges: one array per --edge-csv column)."""
+    edges: one array per --edge-csv column; nuisance adds field_sigma, field_fine_sigma (px)
+    and field_params)."""
     if not isinstance(snapshot, _Snapshot):
         snapshot = load(str(snapshot))
     return _Covariance(snapshot, preset=preset, **options)

@@ -134,7 +134,8 @@ std::string snapshotName(const Snapshot& s) {
 /// message for an unknown one). A method implies self_calibrate, as --self-calibrate-method does.
 SelfCalibrationAppOptions selfCalibrationOptions(bool self_calibrate,
                                                  std::optional<std::string> method,
-                                                 std::optional<int> iterations, bool converge) {
+                                                 std::optional<int> iterations,
+                                                 std::optional<int> nodes, bool converge) {
   SelfCalibrationAppOptions o;
   o.enabled = self_calibrate || method.has_value();
   if (method) o.method = *method;
@@ -143,6 +144,12 @@ SelfCalibrationAppOptions selfCalibrationOptions(bool self_calibrate,
       throw std::invalid_argument("self_calibrate_iterations: " + std::to_string(*iterations) +
                                   " is not in 1..20");
     o.iterations = *iterations;
+  }
+  if (nodes) {
+    if (*nodes < 0 || *nodes > 8)  // dba-covariance's CLI::Range(0, 8)
+      throw std::invalid_argument("self_calibrate_nodes: " + std::to_string(*nodes) +
+                                  " is not in 0..8");
+    o.nodes = *nodes;
   }
   o.converge = converge;
   o.options();  // throws std::invalid_argument for an unknown method
@@ -154,6 +161,11 @@ py::dict calibrationDict(const SelfCalibration& cal) {
   d["method"] = std::string(toString(cal.method));
   d["global_scale"] = cal.global_scale;
   d["passes"] = cal.passes;
+  if (cal.method == SelfCalibrationMethod::Nuisance) {
+    d["field_sigma"] = cal.nuisance_sigma;
+    d["field_fine_sigma"] = cal.nuisance_fine_sigma;
+    d["field_params"] = cal.nuisance_params;
+  }
   py::dict opt;
   opt["gradient_norm"] = cal.optimum.gradient_norm;
   opt["step_sigma"] = cal.optimum.step_sigma;
@@ -372,14 +384,16 @@ PYBIND11_MODULE(_dbacov, m) {
                        std::optional<double> sensor_depth_weight, const std::string& solver,
                        const std::string& ordering, std::size_t threads, bool depth_sigma,
                        bool self_calibrate, std::optional<std::string> self_calibrate_method,
-                       std::optional<int> self_calibrate_iterations, bool converge) {
+                       std::optional<int> self_calibrate_iterations,
+                       std::optional<int> self_calibrate_nodes, bool converge) {
              auto c = std::make_unique<PyCovariance>();
              c->options =
                  engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans,
                                near, far, min_depth_ratio, sensor_depth_weight);
              const CovarianceOptions so = solverOptions(solver, ordering, depth_sigma);
-             const SelfCalibrationAppOptions sc = selfCalibrationOptions(
-                 self_calibrate, self_calibrate_method, self_calibrate_iterations, converge);
+             const SelfCalibrationAppOptions sc =
+                 selfCalibrationOptions(self_calibrate, self_calibrate_method,
+                                        self_calibrate_iterations, self_calibrate_nodes, converge);
              c->depth_sigma = depth_sigma;
              py::gil_scoped_release release;
              const ThreadLimit limit(threads);
@@ -409,7 +423,8 @@ PYBIND11_MODULE(_dbacov, m) {
            py::arg("solver") = "sparse", py::arg("ordering") = "auto", py::arg("threads") = 0,
            py::arg("depth_sigma") = true, py::arg("self_calibrate") = false,
            py::arg("self_calibrate_method") = py::none(),
-           py::arg("self_calibrate_iterations") = py::none(), py::arg("converge") = false)
+           py::arg("self_calibrate_iterations") = py::none(),
+           py::arg("self_calibrate_nodes") = py::none(), py::arg("converge") = false)
       .def_property_readonly("self_calibration",
                              [](const PyCovariance& c) -> py::object {
                                if (!c.calibration) return py::none();

@@ -27,9 +27,10 @@ def edge_csv(path):
     return head, rows
 
 
-@pytest.mark.parametrize("method,iterations", [(None, None), ("score", 2), ("vce", None),
-                                               ("autocorr", None), ("sandwich", None)])
-def test_self_calibration_agrees_with_the_cli(shared_path, tmp_path, method, iterations):
+@pytest.mark.parametrize("method,iterations,nodes", [
+    (None, None, None), ("score", 2, None), ("vce", None, None), ("autocorr", None, None),
+    ("sandwich", None, None), ("nuisance", None, 0), (None, None, 3)])
+def test_self_calibration_agrees_with_the_cli(shared_path, tmp_path, method, iterations, nodes):
     kw = {"self_calibrate": True}
     args = ["--self-calibrate", "--edge-csv", str(tmp_path / "edges.csv")]
     if method:
@@ -38,10 +39,17 @@ def test_self_calibration_agrees_with_the_cli(shared_path, tmp_path, method, ite
     if iterations:
         kw["self_calibrate_iterations"] = iterations
         args += ["--self-calibrate-iterations", str(iterations)]
+    if nodes is not None:
+        kw["self_calibrate_nodes"] = nodes
+        args += ["--self-calibrate-nodes", str(nodes)]
     cov = dbacov.Covariance(shared_path, **kw)
     assert_agree(cov, cli_marginals(shared_path, tmp_path, *args))
     cal = cov.self_calibration
-    assert cal["method"] == (method or "score")
+    assert cal["method"] == (method or "nuisance")
+    if cal["method"] == "nuisance":
+        g = 4 if nodes is None else nodes  # the default spline, or the one asked for
+        assert cal["field_params"] == 2 * (3 + (g * g if g >= 2 else 0))
+        assert cal["field_sigma"] + cal["field_fine_sigma"] > 0  # the snapshot has a field
     assert cal["passes"] >= 1 and cal["optimum"]["free_dof"] == 48
     assert not cal["optimum"]["unreliable"]
     _, rows = edge_csv(tmp_path / "edges.csv")
@@ -82,7 +90,7 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
     with pytest.raises(ValueError) as e:
         dbacov.Covariance(shared_path, self_calibrate_method="bogus")
     assert str(e.value) == ("unknown self-calibration method 'bogus', expected score, vce, "
-                            "autocorr or sandwich")
+                            "autocorr, sandwich or nuisance")
     r = run_cli("-i", shared_path, "--csv", str(tmp_path / "x.csv"),
                 "--self-calibrate-method", "bogus")
     assert r.returncode == 2
@@ -95,6 +103,8 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
     assert r.stderr.splitlines()[0] == "dba-covariance: --gauge: " + str(e.value)
     with pytest.raises(ValueError, match="self_calibrate_iterations: 0 is not in 1..20"):
         dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_iterations=0)
+    with pytest.raises(ValueError, match="nuisance nodes must be 0 .affine. or 2..8"):
+        dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_nodes=1)
     assert not os.path.exists(tmp_path / "x.csv")
 
 

@@ -236,7 +236,10 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
             "--gauge: unknown gauge 'three-pose', expected two-pose, minimal or droid"},
            {{"-i", in, "--csv", out, "--self-calibrate-method", "bogus"},
             "--self-calibrate-method: unknown self-calibration method 'bogus', expected score, "
-            "vce, autocorr or sandwich"}}) {
+            "vce, autocorr, sandwich or nuisance"},
+           {{"-i", in, "--csv", out, "--self-calibrate-nodes", "1"},
+            "--self-calibrate-nodes: self-calibration nuisance nodes must be 0 (affine) or 2..8 "
+            "(G x G bilinear tents)"}}) {
     const AppResult r = run(args);
     EXPECT_EQ(r.code, 2) << r.err;
     EXPECT_TRUE(contains(r.err, "dba-covariance: " + message + "\n")) << r.err;

@@ -74,8 +74,20 @@ std::vector<Source> allSources() {
     v.push_back(s);
   }
   {
+    // The same kind of error 5x weaker: what of "affine" is the size of the error (nonlinearity)
+    Source s{"affine-weak", "per-edge affine flow error 0.02 px", issueScene()};
+    s.config.noise.affine_px = 0.02;
+    v.push_back(s);
+  }
+  {
     Source s{"affine+outliers", "affine 0.05 px + 2 % outlier pixels (10x)", issueScene()};
     s.config.noise.affine_px = 0.05;
+    s.config.noise.outlier_fraction = 0.02;
+    s.config.noise.outlier_factor = 10.0;
+    v.push_back(s);
+  }
+  {
+    Source s{"outliers", "white + 2 % outlier pixels (10x)", issueScene()};
     s.config.noise.outlier_fraction = 0.02;
     s.config.noise.outlier_factor = 10.0;
     v.push_back(s);
@@ -167,6 +179,11 @@ int main(int argc, char** argv) {
             if (name.find("-cov") != std::string::npos) {
               c.score_metric = ScoreMetric::Covariance;
               name.erase(name.find("-cov"), 4);
+            }
+            // "-g<G>": nuisance with a G × G tent spline instead of the affine field.
+            if (name.find("-g") != std::string::npos) {
+              c.nuisance_nodes = std::atoi(name.substr(name.find("-g") + 2).c_str());
+              name.erase(name.find("-g"));
             }
             if (name.find("-it") != std::string::npos) {
               c.iterations = std::atoi(name.substr(name.find("-it") + 3).c_str());

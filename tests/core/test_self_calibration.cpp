@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <numeric>
+#include <random>
+#include <string>
 
 #include <Eigen/Dense>
 
@@ -37,18 +39,28 @@ struct EdgeReference {
   std::vector<double> redundancy, kappa, f;
   std::vector<Eigen::VectorXd> g;  // full tangent, 6n
   Eigen::MatrixXd Sigma;           // 6n × 6n
+  // For the nuisance method: whitened rows' depth-reduced pose columns V (rows × 6n), the
+  // field's whitened columns Φ (rows × mE: m = field_coords per edge, [1, u, v] and the tents per
+  // channel), the residual energy q_e, the joint field information Φᵀ P⊥ Φ (mE × mE) and the
+  // field scores Φᵀ P⊥ r.
+  Eigen::MatrixXd V, Phi, Mfield;
+  int field_coords = 0;
+  Eigen::VectorXd tfield;
+  std::vector<double> q;
+  std::vector<int> source;    // per edge
+  std::vector<int> row_edge;  // per row
 };
 
-EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o) {
+EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o, int nodes = 0) {
   const std::vector<int> kf = s.graphKeyframes();
   const int n = static_cast<int>(kf.size()), HW = static_cast<int>(s.pixelsPerFrame());
   std::vector<int> slot(s.numKeyframes(), -1);
   for (int a = 0; a < n; ++a) slot[kf[a]] = a;
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
   struct Row {
-    int edge, si, sj, depth;
+    int edge, si, sj, depth, channel, x, y;
     Eigen::Matrix<double, 1, 6> Ji, Jj;
-    double Jd, r;
+    double Jd, r, sl;
   };
   std::vector<Row> rows;
   std::vector<int> depth_of(static_cast<std::size_t>(s.numKeyframes()) * HW, -1);
@@ -71,8 +83,8 @@ EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o) {
         int& dv = depth_of[static_cast<std::size_t>(i) * HW + p];
         if (dv < 0) dv = D++;
         const double sl = std::sqrt(lam);
-        rows.push_back({e, slot[i], slot[j], dv, sl * f.J_i.row(c), sl * f.J_j.row(c),
-                        sl * f.J_d[c], sl * f.r[c]});
+        rows.push_back({e, slot[i], slot[j], dv, c, p % s.W, p / s.W, sl * f.J_i.row(c),
+                        sl * f.J_j.row(c), sl * f.J_d[c], sl * f.r[c], sl});
       }
     }
   }
@@ -98,6 +110,40 @@ EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o) {
   const Eigen::VectorXd h = Ad.colwise().squaredNorm().transpose();
   const Eigen::MatrixXd V = Ap - Ad * (h.cwiseInverse().asDiagonal() * (Ad.transpose() * Ap));
   EdgeReference ref;
+  const int E = s.numEdges();
+  // The field's columns: [1, u, v] and, with nodes G >= 2, the G × G tents per channel, written
+  // here from the tents' definition (every basis function at every pixel).
+  const int mb = 3 + (nodes >= 2 ? nodes * nodes : 0), mn = 2 * mb;
+  ref.field_coords = mn;
+  ref.Phi = Eigen::MatrixXd::Zero(M, mn * E);
+  for (int k = 0; k < M; ++k) {
+    const double u = (rows[k].x - 0.5 * (s.W - 1)) / (0.5 * s.W),
+                 v = (rows[k].y - 0.5 * (s.H - 1)) / (0.5 * s.H);
+    const int col = mn * rows[k].edge + mb * rows[k].channel;
+    ref.Phi(k, col) = rows[k].sl;
+    ref.Phi(k, col + 1) = rows[k].sl * u;
+    ref.Phi(k, col + 2) = rows[k].sl * v;
+    for (int a = 0; a < nodes && nodes >= 2; ++a)
+      for (int b = 0; b < nodes; ++b) {
+        const double step = 2.0 / (nodes - 1), nu = -1.0 + b * step, nv = -1.0 + a * step;
+        ref.Phi(k, col + 3 + a * nodes + b) = rows[k].sl *
+                                              std::max(0.0, 1.0 - std::abs(u - nu) / step) *
+                                              std::max(0.0, 1.0 - std::abs(v - nv) / step);
+      }
+  }
+  const Eigen::MatrixXd PhiAP = ref.Phi.transpose() * AP;
+  ref.Mfield =
+      ref.Phi.transpose() * ref.Phi - PhiAP * (AP.transpose() * AP).inverse() * PhiAP.transpose();
+  ref.tfield = ref.Phi.transpose() * (r - APC * (AP.transpose() * r));  // Φᵀ P⊥ r
+  ref.V = V;
+  for (const Row& row : rows) ref.row_edge.push_back(row.edge);
+  for (int e = 0; e < E; ++e) {
+    ref.source.push_back(static_cast<int>(s.ii[e]));
+    double q = 0;
+    for (int k = 0; k < M; ++k)
+      if (rows[k].edge == e) q += r[k] * r[k];
+    ref.q.push_back(q);
+  }
   const Eigen::MatrixXd Pp = P.topLeftCorner(P6, Kp);
   const Eigen::MatrixXd Spp = Pp.transpose() * V.transpose() * V * Pp;
   ref.Sigma = Pp * Spp.inverse() * Pp.transpose();
@@ -173,6 +219,155 @@ TEST(SelfCalibration, RedundancyScoreAndSandwichMatchDenseReference) {
   }
 }
 
+/// The nuisance method against the dense reference: the field's information and scores from
+/// the full hat matrix (poses and depths) and the basis written from its definition, the
+/// estimator re-done on them with a direct search of the likelihood (golden sections on each
+/// log σ_g² in turn), and the covariance of DBA's estimate under the fitted noise model,
+/// Σ Vᵀ (diag(s_e) + Φ D Φᵀ) V Σ. The snapshot is the tiny one with a flow error added to every
+/// edge's targets and re-solved: an affine one of 0.1 px per coefficient and, for the spline
+/// basis, a finer one (a random 0.03 px bump per channel) that only the tents can describe.
+void expectNuisanceMatchesDenseReference(int nodes) {
+  SCOPED_TRACE("nodes " + std::to_string(nodes));
+  Snapshot s = solvedTiny(6);
+  const DbaOptions o = testing::gaugeOptions(GaugeOptions::Type::TwoPose, 0.0, 0.0);
+  std::mt19937_64 rng(99);
+  std::normal_distribution<double> nd(0.0, 0.1);
+  const int HW = static_cast<int>(s.pixelsPerFrame());
+  for (int e = 0; e < s.numEdges(); ++e)
+    for (int c = 0; c < 2; ++c) {
+      const double a0 = nd(rng), a1 = nd(rng), a2 = nd(rng),
+                   bump = nodes >= 2 ? 0.3 * nd(rng) : 0.0;
+      float* t = &s.target[(static_cast<std::size_t>(e) * 2 + c) * HW];
+      for (int p = 0; p < HW; ++p) {
+        const double u = (p % s.W - 0.5 * (s.W - 1)) / (0.5 * s.W),
+                     v = (p / s.W - 0.5 * (s.H - 1)) / (0.5 * s.H);
+        t[p] += static_cast<float>(a0 + a1 * u + a2 * v + bump * (1 - u * u) * (1 - v * v));
+      }
+    }
+  solveDba(s, o);
+  SelfCalibrationOptions c;
+  c.method = SelfCalibrationMethod::Nuisance;
+  c.nuisance_nodes = nodes;
+  const SelfCalibration cal = selfCalibrate(s, o, c);
+  const EdgeReference ref = denseEdgeReference(s, o, nodes);
+  const int E = s.numEdges(), mn = ref.field_coords, mb = mn / 2, G = nodes >= 2 ? 2 : 1;
+  ASSERT_EQ(cal.nuisance_params, mn);
+  // Each field is found (else the comparisons below are void).
+  ASSERT_GT(cal.nuisance_sigma, 0.01);
+  if (G == 2) {
+    ASSERT_GT(cal.nuisance_fine_sigma, 0.005);
+  }
+  const auto groupOf = [&](int k) { return k % mb < 3 ? 0 : 1; };
+
+  // The estimator on the dense quantities. Per edge, on the range of M_e = (Φᵀ P⊥ Φ)_ee (the
+  // tents reproduce the affine field: M_e is singular), W = Λ^-½ Uᵀ, y = W t_e and per group
+  // B_g = W A_g Wᵀ, A_g = Σ_{e' from the same source} M_ee' D_g M_e'e; then y ~ N(0, s_e I +
+  // Σ_g σ_g² B_g), s_e and the σ_g² alternated.
+  struct Edge {
+    Eigen::VectorXd y, excess;
+    std::vector<Eigen::MatrixXd> B;
+    double q = 0, dof = 0, fit = 0;
+  };
+  std::vector<Edge> ed(E);
+  for (int e = 0; e < E; ++e) {
+    const Eigen::MatrixXd M = ref.Mfield.block(mn * e, mn * e, mn, mn);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M);
+    const Eigen::VectorXd& ev = eig.eigenvalues();
+    std::vector<int> keep;
+    for (int k = 0; k < mn; ++k)
+      if (ev[k] > 1e-8 * ev.maxCoeff()) keep.push_back(k);
+    Eigen::MatrixXd W(keep.size(), mn);
+    for (std::size_t r = 0; r < keep.size(); ++r)
+      W.row(r) = eig.eigenvectors().col(keep[r]).transpose() / std::sqrt(ev[keep[r]]);
+    ed[e].y = W * ref.tfield.segment(mn * e, mn);
+    ed[e].excess = Eigen::VectorXd::Zero(G);
+    for (int g = 0; g < G; ++g) {
+      Eigen::MatrixXd A = Eigen::MatrixXd::Zero(mn, mn);
+      for (int f = 0; f < E; ++f) {
+        if (ref.source[f] != ref.source[e]) continue;
+        Eigen::MatrixXd Mef = ref.Mfield.block(mn * e, mn * f, mn, mn);
+        for (int k = 0; k < mn; ++k)
+          if (groupOf(k) != g) Mef.col(k).setZero();
+        A += Mef * Mef.transpose();
+      }
+      ed[e].B.push_back(W * A * W.transpose());
+      double trMgg = 0;
+      for (int k = 0; k < mn; ++k)
+        if (groupOf(k) == g) trMgg += M(k, k);
+      ed[e].excess[g] = ed[e].B[g].trace() - trMgg;
+    }
+    ed[e].q = ref.q[e];
+    ed[e].dof = ref.redundancy[e] - static_cast<double>(keep.size());
+    ed[e].fit = ed[e].y.squaredNorm();
+    ASSERT_GT(ed[e].dof, 0.5) << "edge " << e;
+  }
+  std::vector<double> se(E);
+  for (int e = 0; e < E; ++e) se[e] = std::max(ed[e].q - ed[e].fit, 0.05 * ed[e].q) / ed[e].dof;
+  Eigen::VectorXd theta = Eigen::VectorXd::Constant(G, 1e-3);
+  auto loglik = [&](const Eigen::VectorXd& th) {
+    double l = 0;
+    for (int e = 0; e < E; ++e) {
+      const int r = static_cast<int>(ed[e].y.size());
+      Eigen::MatrixXd Cv = se[e] * Eigen::MatrixXd::Identity(r, r);
+      for (int g = 0; g < G; ++g) Cv += th[g] * ed[e].B[g];
+      const Eigen::LLT<Eigen::MatrixXd> llt(Cv);
+      l -= 0.5 * (2 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum() +
+                  ed[e].y.dot(llt.solve(ed[e].y)));
+    }
+    return l;
+  };
+  for (int outer = 0; outer < 25; ++outer) {
+    for (int sweep = 0; sweep < (G == 2 ? 3 : 1); ++sweep)
+      for (int g = 0; g < G; ++g) {
+        double lo = std::log(1e-12), hi = std::log(1.0);
+        Eigen::VectorXd th = theta;
+        for (int it = 0; it < 70; ++it) {
+          const double a = lo + 0.382 * (hi - lo), b = lo + 0.618 * (hi - lo);
+          th[g] = std::exp(a);
+          const double la = loglik(th);
+          th[g] = std::exp(b);
+          if (la < loglik(th))
+            lo = a;
+          else
+            hi = b;
+        }
+        theta[g] = std::exp(0.5 * (lo + hi));
+      }
+    for (int e = 0; e < E; ++e)
+      se[e] = std::max(ed[e].q - ed[e].fit + theta.dot(ed[e].excess), 0.05 * ed[e].q) / ed[e].dof;
+  }
+  EXPECT_NEAR(cal.nuisance_sigma * cal.nuisance_sigma, theta[0], 1e-4 * theta[0]);
+  if (G == 2) {
+    EXPECT_NEAR(cal.nuisance_fine_sigma * cal.nuisance_fine_sigma, theta[1], 1e-4 * theta[1]);
+  }
+  for (int e = 0; e < E; ++e) EXPECT_NEAR(cal.edges[e].inflation, se[e], 1e-4 * se[e]) << e;
+
+  // The covariance, with the method's own estimates.
+  const double var[2] = {cal.nuisance_sigma * cal.nuisance_sigma,
+                         cal.nuisance_fine_sigma * cal.nuisance_fine_sigma};
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(ref.V.cols(), ref.V.cols());
+  for (int e = 0; e < E; ++e) {
+    const Eigen::MatrixXd VPhi = ref.V.transpose() * ref.Phi.middleCols(mn * e, mn);
+    for (int k = 0; k < mn; ++k) meat += var[groupOf(k)] * VPhi.col(k) * VPhi.col(k).transpose();
+  }
+  for (int k = 0; k < ref.V.rows(); ++k)
+    meat += cal.edges[ref.row_edge[k]].inflation * ref.V.row(k).transpose() * ref.V.row(k);
+  const Eigen::MatrixXd expected = ref.Sigma * meat * ref.Sigma;
+  const DbaCovariance cov = selfCalibratedCovariance(s, o, {}, cal);
+  EXPECT_EQ(cov.summary().self_calibration.method, "nuisance");
+  const std::vector<int> kf = s.graphKeyframes();
+  for (std::size_t a = 0; a < kf.size(); ++a) {
+    const Matrix6d got = cov.marginal(kf[a]);
+    const Eigen::MatrixXd want = expected.block<6, 6>(6 * a, 6 * a);
+    EXPECT_LE((got - want).norm(), 1e-6 * (1e-12 + want.norm())) << "keyframe " << kf[a];
+  }
+}
+
+TEST(SelfCalibration, NuisanceMatchesDenseReference) {
+  expectNuisanceMatchesDenseReference(0);  // affine
+  expectNuisanceMatchesDenseReference(3);  // affine + 3 × 3 tents: two variance components
+}
+
 /// The median of the per-edge inflations (edges with pixels).
 double medianInflation(const SelfCalibration& c) {
   std::vector<double> v;
@@ -187,7 +382,7 @@ TEST(SelfCalibration, MatchingWhiteNoiseIsLeftAlone) {
   const sim::SimulatedSnapshot sim = sc.simulate(0, 0);
   const DbaOptions o = sc.config().engineOptions();
   for (SelfCalibrationMethod m : {SelfCalibrationMethod::Vce, SelfCalibrationMethod::Autocorr,
-                                  SelfCalibrationMethod::Score}) {
+                                  SelfCalibrationMethod::Score, SelfCalibrationMethod::Nuisance}) {
     SelfCalibrationOptions c;
     c.method = m;
     const SelfCalibration cal = selfCalibrate(sim.snapshot, o, c);
@@ -222,8 +417,9 @@ TEST(SelfCalibration, WrongWeightScaleIsCorrected) {
   DbaOptions wrong = right;
   wrong.weight_scale *= 4.0;  // claims 4× the information the targets have
   const DbaCovariance truth(sim.snapshot, right);
-  for (SelfCalibrationMethod m : {SelfCalibrationMethod::Vce, SelfCalibrationMethod::Autocorr,
-                                  SelfCalibrationMethod::Score, SelfCalibrationMethod::Sandwich}) {
+  for (SelfCalibrationMethod m :
+       {SelfCalibrationMethod::Vce, SelfCalibrationMethod::Autocorr, SelfCalibrationMethod::Score,
+        SelfCalibrationMethod::Sandwich, SelfCalibrationMethod::Nuisance}) {
     SelfCalibrationOptions c;
     c.method = m;
     const SelfCalibration cal = selfCalibrate(sim.snapshot, wrong, c);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <stdexcept>
 
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/dba_solver.h"
@@ -16,6 +17,7 @@ SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
   SelfCalibrationOptions o;
   if (!method.empty()) o.method = parseSelfCalibrationMethod(method);
   if (iterations > 0) o.iterations = iterations;
+  if (nodes >= 0) o.nuisance_nodes = nodes;
   o.validate();
   return o;
 }
@@ -27,12 +29,36 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
                "Estimate each edge's noise (scale and correlation) from the snapshot's residuals "
                "and inflate its pixel information accordingly (no ground truth)");
   cli.add_option("--self-calibrate-method", o.method,
-                 "score (default), vce, autocorr or sandwich; implies --self-calibrate")
+                 enumNameList<SelfCalibrationMethod>() + " (default " +
+                     toString(SelfCalibrationOptions{}.method) + "); implies --self-calibrate")
       ->check(enumValidator<SelfCalibrationMethod>())
       ->each([&o](const std::string&) { o.enabled = true; });
   cli.add_option("--self-calibrate-iterations", o.iterations,
                  "Reweighting passes of vce/score/autocorr (default 1)")
       ->check(CLI::Range(1, 20));
+  cli.add_option("--self-calibrate-nodes", o.nodes,
+                 "nuisance: the per-edge flow error field, 0 = affine, G = affine + G x G "
+                 "bilinear spline per channel (default " +
+                     std::to_string(SelfCalibrationOptions{}.nuisance_nodes) + ")")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            // The core's own check and message (SelfCalibrationOptions::validate).
+            SelfCalibrationOptions c;
+            try {
+              std::size_t used = 0;
+              c.nuisance_nodes = std::stoi(text, &used);
+              if (used != text.size()) throw std::invalid_argument(text);
+            } catch (const std::logic_error&) {
+              return "'" + text + "' is not an integer";
+            }
+            try {
+              c.validate();
+            } catch (const std::invalid_argument& e) {
+              return e.what();
+            }
+            return {};
+          },
+          "INT in {0, 2..8}"));
   if (!outputs) return;
   cli.add_option("--edge-csv", o.edge_csv,
                  "With --self-calibrate: one row per (snapshot, edge): pixels, residual RMS, "
@@ -103,6 +129,10 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   for (const EdgeCalibration& e : cal.edges)
     if (e.rows > 0) inflations_.push_back(e.inflation);
   scales_.push_back(cal.global_scale);
+  if (cal.method == SelfCalibrationMethod::Nuisance) {
+    field_sigmas_.push_back(cal.nuisance_sigma);
+    fine_sigmas_.push_back(cal.nuisance_fine_sigma);
+  }
   steps_.push_back(cal.optimum.step_sigma / std::sqrt(std::max(1, cal.optimum.free_dof)));
   ++snapshots_;
   unreliable_ += unreliable;
@@ -139,6 +169,12 @@ std::string SelfCalibrationRun::summaryLine() const {
     const auto [lo, hi] = std::minmax_element(inflations_.begin(), inflations_.end());
     os << ", edge inflation median " << number(median(inflations_)) << " (" << number(*lo) << " to "
        << number(*hi) << "), global residual scale " << number(median(scales_));
+  }
+  if (!field_sigmas_.empty()) {
+    os << ", field sigma median " << number(median(field_sigmas_)) << " px (affine)";
+    if (options_.nuisance_nodes >= 2)
+      os << ", " << number(median(fine_sigmas_)) << " px (" << options_.nuisance_nodes << "x"
+         << options_.nuisance_nodes << " spline)";
   }
   if (snapshots_ > 0) os << ", " << number(seconds_ / snapshots_) << " s per snapshot";
   if (!steps_.empty())

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Cholesky>
@@ -25,6 +26,9 @@ void SelfCalibrationOptions::validate() const {
   if (autocorr_lag < 1) throw std::invalid_argument("self-calibration autocorr lag must be >= 1");
   if (!(min_inflation > 0) || !(max_inflation >= min_inflation) || !std::isfinite(max_inflation))
     throw std::invalid_argument("self-calibration inflation bounds must satisfy 0 < min <= max");
+  if (nuisance_nodes != 0 && !(nuisance_nodes >= 2 && nuisance_nodes <= 8))
+    throw std::invalid_argument(
+        "self-calibration nuisance nodes must be 0 (affine) or 2..8 (G x G bilinear tents)");
 }
 
 std::vector<double> SelfCalibration::inflations() const {
@@ -104,6 +108,49 @@ struct EdgeAccum {
   double gIg = 0, expected_info = 0;  ///< g_eᵀ I_e⁺ g_e and its expectation
   double tau = 1;
   Eigen::VectorXd g;  ///< 6n, depth-reduced score
+  // Nuisance only, on the edge's source slots (slots[a] = the a-th 6-block's keyframe slot):
+  std::vector<int> slots;
+  Eigen::MatrixXd I;   ///< 6T × 6T, the edge's share of S
+  Eigen::MatrixXd C;   ///< 6T × m, Σ_{rows of e} v φᵀ
+  Eigen::MatrixXd Mn;  ///< m × m, the field's information after poses and depths
+  /// Per field group g, m × m: (M_s D_g M_s)_ee, Cov(t) per unit σ_g² (the source's fields).
+  std::vector<Eigen::MatrixXd> An;
+  std::vector<int> group;    ///< the group of each of the m coordinates
+  Eigen::VectorXd t;         ///< m, the field's depth-reduced score Φ̃ᵀ Λ r
+  Eigen::VectorXd CSC_diag;  ///< diag(Cᵀ Σ C)
+};
+
+/// The nuisance field's basis on the H × W grid, per channel: the affine [1, u, v] (group 0) and,
+/// with nodes G >= 2, G × G bilinear tents (group 1), on u, v ∈ [−1, 1] (the grid's pixel centres
+/// scaled by half its size). Each group has its own variance: a field is affine, or finer, or both.
+/// A pixel touches the affine three and the four tents of its spline cell, so every sum over
+/// pixels runs on those (active()) coordinates, cell by cell.
+struct NuisanceBasis {
+  int nodes = 0, H = 1, W = 1;
+  int perChannel() const { return 3 + (nodes >= 2 ? nodes * nodes : 0); }
+  int groups() const { return nodes >= 2 ? 2 : 1; }
+  /// The group of coordinate k of an edge's field (channel-major: [x channel | y channel]).
+  int groupOf(int k) const { return k % perChannel() < 3 ? 0 : 1; }
+  int active() const { return nodes >= 2 ? 7 : 3; }  ///< basis functions non-zero at a pixel
+  int cells() const { return nodes >= 2 ? (nodes - 1) * (nodes - 1) : 1; }
+  /// The active coordinates of pixel (x, y) within a channel's perChannel() and their values;
+  /// returns the pixel's spline cell (0 for the affine basis).
+  int eval(int x, int y, int* index, double* value) const {
+    const double u = (x - 0.5 * (W - 1)) / (0.5 * W), v = (y - 0.5 * (H - 1)) / (0.5 * H);
+    index[0] = 0, index[1] = 1, index[2] = 2;
+    value[0] = 1.0, value[1] = u, value[2] = v;
+    if (nodes < 2) return 0;
+    const double step = 2.0 / (nodes - 1);
+    const double pu = (u + 1.0) / step, pv = (v + 1.0) / step;
+    const int b = std::clamp(static_cast<int>(std::floor(pu)), 0, nodes - 2);
+    const int a = std::clamp(static_cast<int>(std::floor(pv)), 0, nodes - 2);
+    const double wu = pu - b, wv = pv - a;
+    const int k0 = 3 + a * nodes + b;
+    index[3] = k0, index[4] = k0 + 1, index[5] = k0 + nodes, index[6] = k0 + nodes + 1;
+    value[3] = (1 - wv) * (1 - wu), value[4] = (1 - wv) * wu;
+    value[5] = wv * (1 - wu), value[6] = wv * wu;
+    return a * (nodes - 1) + b;
+  }
 };
 
 struct Row {
@@ -146,7 +193,8 @@ double autocorrelationSum(const std::vector<double> z[2], const std::vector<char
 
 /// One pass over every edge at the snapshot's state and weights, with the model's Σ.
 std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const DenseModel& m,
-                                bool autocorr, int L, bool info_metric) {
+                                bool autocorr, int L, bool info_metric,
+                                const NuisanceBasis* nuisance = nullptr) {
   const int E = s.numEdges(), n = static_cast<int>(m.ne.keyframes.size());
   const int HW = static_cast<int>(s.pixelsPerFrame());
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
@@ -155,6 +203,24 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
   std::vector<int> sources;
   for (int k : m.ne.keyframes)
     if (std::find(s.ii.begin(), s.ii.end(), k) != s.ii.end()) sources.push_back(k);
+  // Nuisance: every grid pixel's active basis coordinates, values and spline cell.
+  struct FieldTable {
+    std::vector<int> index, cell;
+    std::vector<double> value;
+    std::vector<std::vector<int>> pixels_of_cell;
+  } field;
+  if (nuisance) {
+    const std::size_t na = static_cast<std::size_t>(nuisance->active());
+    field.index.resize(na * HW);
+    field.value.resize(na * HW);
+    field.cell.resize(HW);
+    field.pixels_of_cell.resize(static_cast<std::size_t>(nuisance->cells()));
+    for (int px = 0; px < HW; ++px) {
+      field.cell[px] =
+          nuisance->eval(px % s.W, px / s.W, &field.index[na * px], &field.value[na * px]);
+      field.pixels_of_cell[field.cell[px]].push_back(px);
+    }
+  }
 
   parallelFor(sources.size(), [&](std::size_t si) {
     const int src = sources[si];
@@ -184,7 +250,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     // Rows of every edge, and the depth terms h, b of every pixel.
     std::vector<std::vector<Row>> rows(Q);
     for (auto& r : rows) r.reserve(static_cast<std::size_t>(2 * HW));
-    std::vector<double> h(HW, 0.0);
+    std::vector<double> h(HW, 0.0), gd(HW, 0.0);  // depth information and gradient Σ λ J_d r
     Eigen::MatrixXd B = Eigen::MatrixXd::Zero(6 * T, HW);
     PixelFactorLinearization f;
     for (int p = 0; p < HW; ++p) {
@@ -204,6 +270,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           if (!(lam[c] > 0)) continue;
           Row r{p, c, lam[c], f.r[c], f.J_d[c], f.J_i.row(c), f.J_j.row(c)};
           h[p] += lam[c] * r.jd * r.jd;
+          gd[p] += lam[c] * r.jd * r.r;
           B.col(p).segment<6>(0) += lam[c] * r.jd * r.Ji.transpose();
           B.col(p).segment<6>(6 * tpos[q]) += lam[c] * r.jd * r.Jj.transpose();
           rows[q].push_back(r);
@@ -222,6 +289,15 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
 
     std::vector<double> z[2];
     std::vector<char> mask[2];
+    // Nuisance: the depth's share of every edge's field at every pixel of the source, b_c / √h
+    // per edge and channel (the shared depths couple the fields of edges that leave the same
+    // keyframe), and the blocks Σ φφᵀ.
+    const int mn = nuisance ? 2 * nuisance->perChannel() : 0;
+    Eigen::MatrixXd b_src, n_raw;
+    if (nuisance) {
+      b_src = Eigen::MatrixXd::Zero(2 * Q, HW);
+      n_raw = Eigen::MatrixXd::Zero(Q * mn, Q * mn);
+    }
     for (int q = 0; q < Q; ++q) {
       EdgeAccum& a = acc[edges[q]];
       const std::vector<Row>& rq = rows[q];
@@ -347,6 +423,70 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.expected_info = rank - (U.transpose() * Cm).squaredNorm() - a.tr_SI;
       }
       for (int b = 0; b < T; ++b) a.g.segment<6>(6 * touched[b]) = g.segment<6>(6 * b);
+      if (nuisance) {
+        // The field's whitened columns φ_k = √λ Φ(x, y) on the row's channel, on each pixel's
+        // active coordinates; per pixel the depth's share b_c = Σ_{rows of channel c} λ J_d.
+        const int mb = nuisance->perChannel(), na = nuisance->active();
+        Eigen::Matrix<double, 12, Eigen::Dynamic> CU = Eigen::MatrixXd::Zero(12, mn);
+        Eigen::MatrixXd Nn = Eigen::MatrixXd::Zero(mn, mn), bh = Eigen::MatrixXd::Zero(2, P);
+        Eigen::VectorXd tn = Eigen::VectorXd::Zero(mn);
+        std::vector<std::vector<int>> by_cell(static_cast<std::size_t>(nuisance->cells()));
+        for (int pix = 0; pix < P; ++pix) {
+          const int px = rq[first_row[pix]].pixel;
+          const int* act = &field.index[static_cast<std::size_t>(px) * na];
+          const double* val = &field.value[static_cast<std::size_t>(px) * na];
+          by_cell[field.cell[px]].push_back(pix);
+          double bc[2] = {0.0, 0.0};
+          for (int k = first_row[pix]; k < first_row[pix + 1]; ++k) {
+            const Row& r = rq[k];
+            const int off = r.channel * mb;
+            const double sl = std::sqrt(r.lam);
+            for (int u = 0; u < na; ++u) {
+              CU.col(off + act[u]) += (sl * val[u]) * Um.col(k);
+              tn[off + act[u]] += sl * sr[k] * val[u];
+              for (int w = 0; w < na; ++w)
+                Nn(off + act[u], off + act[w]) += r.lam * val[u] * val[w];
+            }
+            bc[r.channel] += r.lam * r.jd;
+          }
+          if (!(hk[pix] > o.depth_info_eps)) continue;
+          for (int c = 0; c < 2; ++c) {
+            for (int u = 0; u < na; ++u) tn[c * mb + act[u]] -= bc[c] * val[u] * gd[px] / hk[pix];
+            bh(c, pix) = bc[c] / hk[pix];
+            b_src(2 * q + c, px) = bc[c] / std::sqrt(hk[pix]);
+          }
+        }
+        // C = Σ_k v_k φ_kᵀ = Σ u φᵀ − Σ_p B_p (b_c(p) / h_p) φ(p)ᵀ, one product per spline cell
+        // (its pixels share the active coordinates).
+        Eigen::MatrixXd Cn = Eigen::MatrixXd::Zero(6 * T, mn);
+        for (const std::vector<int>& cell : by_cell) {
+          if (cell.empty()) continue;
+          const int np = static_cast<int>(cell.size());
+          Eigen::MatrixXd Bc(6 * T, np), Y(np, 2 * na);
+          for (int col = 0; col < np; ++col) {
+            const int pix = cell[col];
+            const double* val =
+                &field.value[static_cast<std::size_t>(rq[first_row[pix]].pixel) * na];
+            Bc.col(col) = Bp.col(pix);
+            for (int c = 0; c < 2; ++c)
+              for (int u = 0; u < na; ++u) Y(col, c * na + u) = bh(c, pix) * val[u];
+          }
+          const Eigen::MatrixXd Z = Bc * Y;
+          const int* act =
+              &field.index[static_cast<std::size_t>(rq[first_row[cell[0]]].pixel) * na];
+          for (int c = 0; c < 2; ++c)
+            for (int u = 0; u < na; ++u) Cn.col(c * mb + act[u]) -= Z.col(c * na + u);
+        }
+        for (int i = 0; i < 12; ++i) Cn.row(idx[i]) += CU.row(i);
+        n_raw.block(q * mn, q * mn, mn, mn) = Nn;
+        a.CSC_diag = Cn.cwiseProduct(Sig * Cn).colwise().sum().transpose();
+        a.C = std::move(Cn);
+        a.I = I;
+        a.t = tn;
+        a.slots = touched;
+        a.group.resize(mn);
+        for (int k = 0; k < mn; ++k) a.group[k] = nuisance->groupOf(k);
+      }
       if (autocorr) {
         for (int c = 0; c < 2; ++c) {
           z[c].assign(HW, 0.0);
@@ -358,6 +498,54 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           mask[r.channel][r.pixel] = 1;
         }
         a.tau = autocorrelationSum(z, mask, s.H, s.W, L);
+      }
+    }
+    if (nuisance) {
+      // The fields' information after the poses and depths, jointly over the source's edges:
+      // M_s = blockdiag(Σ φφᵀ) − Σ_p β_p β_pᵀ / h_p − C_sᵀ Σ C_s. Each edge keeps its diagonal
+      // block M_e and (M_s D_g M_s)_ee, the covariance of its field score per unit σ_g² including
+      // what the other edges' fields put into it. Σ_p β_p β_pᵀ / h_p cell by cell: the cell's
+      // pixels touch the same coordinates of every edge, (q, c, active u) -> q·mn + c·mb +
+      // index[u].
+      const int mb = nuisance->perChannel(), na = nuisance->active();
+      Eigen::MatrixXd Ms = n_raw;
+      for (const std::vector<int>& cell : field.pixels_of_cell) {
+        if (cell.empty()) continue;
+        const int np = static_cast<int>(cell.size());
+        Eigen::MatrixXd Zc(2 * Q * na, np);
+        for (int col = 0; col < np; ++col) {
+          const double* val = &field.value[static_cast<std::size_t>(cell[col]) * na];
+          for (int qc = 0; qc < 2 * Q; ++qc)
+            for (int u = 0; u < na; ++u) Zc(qc * na + u, col) = b_src(qc, cell[col]) * val[u];
+        }
+        Eigen::MatrixXd Lc = Eigen::MatrixXd::Zero(2 * Q * na, 2 * Q * na);
+        Lc.selfadjointView<Eigen::Lower>().rankUpdate(Zc);
+        Lc = Lc.selfadjointView<Eigen::Lower>();
+        const int* act = &field.index[static_cast<std::size_t>(cell[0]) * na];
+        std::vector<int> to(2 * Q * na);
+        for (int qc = 0; qc < 2 * Q; ++qc)
+          for (int u = 0; u < na; ++u) to[qc * na + u] = (qc / 2) * mn + (qc % 2) * mb + act[u];
+        for (int c = 0; c < 2 * Q * na; ++c)
+          for (int r = 0; r < 2 * Q * na; ++r) Ms(to[r], to[c]) -= Lc(r, c);
+      }
+      Eigen::MatrixXd Cs = Eigen::MatrixXd::Zero(6 * T, Q * mn);
+      for (int q = 0; q < Q; ++q)
+        if (acc[edges[q]].C.size() > 0) Cs.middleCols(q * mn, mn) = acc[edges[q]].C;
+      Ms.noalias() -= Cs.transpose() * (Sig * Cs);
+      Ms = 0.5 * (Ms + Ms.transpose()).eval();
+      const int G = nuisance->groups();
+      for (int q = 0; q < Q; ++q) {
+        EdgeAccum& a = acc[edges[q]];
+        if (a.C.size() == 0) continue;
+        a.Mn = Ms.block(q * mn, q * mn, mn, mn);
+        a.An.assign(G, Eigen::MatrixXd::Zero(mn, mn));
+        for (int g = 0; g < G; ++g) {
+          Eigen::MatrixXd Rg = Ms.middleRows(q * mn, mn);  // the edge's rows, group g's columns
+          for (int k = 0; k < Q * mn; ++k)
+            if (nuisance->groupOf(k % mn) != g) Rg.col(k).setZero();
+          a.An[g].selfadjointView<Eigen::Lower>().rankUpdate(Rg);
+          a.An[g] = a.An[g].selfadjointView<Eigen::Lower>();
+        }
       }
     }
   });
@@ -386,6 +574,176 @@ double expectedScore(const EdgeAccum& a) {
   return a.tr_SI - a.tr_SD - a.tr_SISI;
 }
 
+/// The nuisance method's estimates and covariance (self_calibration.h). Per edge, on the range
+/// of M_e (rank r), the whitened field score y = Λ^-½ Uᵀ t_e has
+/// Cov(y) = Σ_g σ_g² B_g + s_e I, B_g = W A_g Wᵀ (A_g = (M_s D_g M_s)_ee, W = Λ^-½ Uᵀ).
+/// The σ_g² maximize the likelihood of every edge's y (projected Fisher scoring, σ_g² >= 0); the
+/// white scale is the residual beyond the edge's own field fit |y|², corrected by what the fit is
+/// expected to take beyond the edge's field energy: s_e = (q_e − |y|² + Σ_g σ_g² (tr B_g −
+/// tr M_e,gg)) / (ρ_e − r); the two alternate. The covariance is
+/// Σ (S + Σ_e (s_e − 1) I_e + Σ_g σ_g² C_e,g C_e,gᵀ) Σ in the gauge's reduced coordinates.
+void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
+                        SelfCalibration* out) {
+  const int E = static_cast<int>(acc.size());
+  struct FieldEdge {
+    int edge;
+    Eigen::VectorXd y;
+    std::vector<Eigen::MatrixXd> B;
+    Eigen::VectorXd excess;  ///< per group: tr B_g − tr M_e,gg
+    double fit, dof;
+  };
+  std::vector<FieldEdge> fe;
+  std::vector<double> se(E, 1.0);
+  std::vector<char> used(E, 0);
+  int G = 0;
+  // The field scores of the residual projected off the poses too, Φᵀ P⊥ r = t_e − C_eᵀ Σ g
+  // (g the depth-reduced gradient; zero at the optimum, where this changes nothing).
+  Eigen::VectorXd grad = Eigen::VectorXd::Zero(m.Sigma.rows());
+  for (const EdgeAccum& a : acc) grad += a.g;
+  const Eigen::VectorXd Sg = m.Sigma * grad;
+  for (int e = 0; e < E; ++e) {
+    const EdgeAccum& a = acc[e];
+    const double rho = out->edges[e].redundancy;
+    if (a.rows == 0 || !(rho > 0.5) || a.Mn.size() == 0) continue;
+    G = static_cast<int>(a.An.size());
+    Eigen::VectorXd sg(6 * a.slots.size());
+    for (std::size_t b = 0; b < a.slots.size(); ++b)
+      sg.segment<6>(6 * b) = Sg.segment<6>(6 * a.slots[b]);
+    const Eigen::VectorXd t = a.t - a.C.transpose() * sg;
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(a.Mn);
+    const Eigen::VectorXd& ev = eig.eigenvalues();
+    // Directions that the poses and depths leave (almost) nothing of carry no information (and
+    // the tents reproduce the affine field: those directions appear twice).
+    const double cut = 1e-8 * std::max(ev.maxCoeff(), 0.0);
+    int rank = 0;
+    for (int k = 0; k < ev.size(); ++k) rank += ev[k] > cut && cut > 0;
+    used[e] = 1;
+    se[e] = a.q / rho;
+    if (rank == 0) continue;
+    const int mn = static_cast<int>(ev.size());
+    Eigen::MatrixXd W(rank, mn);
+    for (int k = mn - rank, r = 0; k < mn; ++k, ++r)
+      W.row(r) = eig.eigenvectors().col(k).transpose() / std::sqrt(ev[k]);
+    FieldEdge f;
+    f.edge = e;
+    f.y = W * t;
+    f.excess = Eigen::VectorXd::Zero(G);
+    for (int g = 0; g < G; ++g) {
+      f.B.push_back(W * a.An[g] * W.transpose());
+      double trMgg = 0;
+      for (int k = 0; k < mn; ++k)
+        if (a.group[k] == g) trMgg += a.Mn(k, k);
+      f.excess[g] = f.B[g].trace() - trMgg;
+    }
+    f.fit = f.y.squaredNorm();
+    f.dof = rho - rank;
+    if (f.dof > 0.5) se[e] = std::max(std::max(a.q - f.fit, 0.05 * a.q) / f.dof, 1e-300);
+    fe.push_back(std::move(f));
+  }
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(std::max(G, 1));
+  // The log-likelihood, its gradient and Fisher information in θ = (σ_g²) at fixed s_e.
+  const auto evaluate = [&](const Eigen::VectorXd& th, Eigen::VectorXd* score,
+                            Eigen::MatrixXd* info) {
+    double ll = 0;
+    if (score) *score = Eigen::VectorXd::Zero(G);
+    if (info) *info = Eigen::MatrixXd::Zero(G, G);
+    for (const FieldEdge& f : fe) {
+      const int r = static_cast<int>(f.y.size());
+      Eigen::MatrixXd Cv = se[f.edge] * Eigen::MatrixXd::Identity(r, r);
+      for (int g = 0; g < G; ++g) Cv += th[g] * f.B[g];
+      const Eigen::LLT<Eigen::MatrixXd> llt(Cv);
+      if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+      const Eigen::VectorXd Ciy = llt.solve(f.y);
+      ll -=
+          0.5 * (2 * Eigen::MatrixXd(llt.matrixL()).diagonal().array().log().sum() + f.y.dot(Ciy));
+      if (!score) continue;
+      std::vector<Eigen::MatrixXd> CiB(G);
+      for (int g = 0; g < G; ++g) {
+        CiB[g] = llt.solve(f.B[g]);
+        (*score)[g] += 0.5 * (Ciy.dot(f.B[g] * Ciy) - CiB[g].trace());
+      }
+      for (int g = 0; g < G; ++g)
+        for (int h = 0; h < G; ++h)
+          (*info)(g, h) += 0.5 * CiB[g].cwiseProduct(CiB[h].transpose()).sum();
+    }
+    return ll;
+  };
+  for (int outer = 0; outer < 50 && !fe.empty(); ++outer) {
+    // σ_g² at fixed s_e: projected Fisher scoring with step halving.
+    double ll = evaluate(theta, nullptr, nullptr);
+    for (int it = 0; it < 100; ++it) {
+      Eigen::VectorXd score;
+      Eigen::MatrixXd info;
+      evaluate(theta, &score, &info);
+      // Coordinates held at 0 whose score points below 0 stay there.
+      std::vector<int> free;
+      for (int g = 0; g < G; ++g)
+        if (theta[g] > 0 || score[g] > 0) free.push_back(g);
+      if (free.empty()) break;
+      Eigen::MatrixXd F(free.size(), free.size());
+      Eigen::VectorXd sc(free.size());
+      for (std::size_t a = 0; a < free.size(); ++a) {
+        sc[a] = score[free[a]];
+        for (std::size_t b = 0; b < free.size(); ++b) F(a, b) = info(free[a], free[b]);
+      }
+      const Eigen::VectorXd step = F.ldlt().solve(sc);
+      double alpha = 1, ll_new = ll;
+      Eigen::VectorXd next = theta;
+      for (int half = 0; half < 30; ++half, alpha *= 0.5) {
+        next = theta;
+        for (std::size_t a = 0; a < free.size(); ++a)
+          next[free[a]] = std::max(0.0, theta[free[a]] + alpha * step[a]);
+        ll_new = evaluate(next, nullptr, nullptr);
+        if (ll_new >= ll - 1e-12 * std::abs(ll)) break;
+      }
+      const double moved = (next - theta).norm();
+      theta = next;
+      const bool done = ll_new - ll <= 1e-10 * std::max(1.0, std::abs(ll)) ||
+                        moved <= 1e-7 * std::max(theta.norm(), 1e-300);
+      ll = ll_new;
+      if (done) break;
+    }
+    // The white scales given σ² (at least 5 % of the residual stays white: the field cannot
+    // explain all of it).
+    double change = 0;
+    for (const FieldEdge& f : fe) {
+      if (!(f.dof > 0.5)) continue;
+      const double q = acc[f.edge].q;
+      const double next =
+          std::max(std::max(q - f.fit + theta.head(G).dot(f.excess), 0.05 * q) / f.dof, 1e-300);
+      change = std::max(change, std::abs(next / se[f.edge] - 1.0));
+      se[f.edge] = next;
+    }
+    if (change < 1e-8) break;
+  }
+  const int n6 = static_cast<int>(m.Sigma.rows());
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n6, n6);
+  for (int e = 0; e < E; ++e) {
+    const EdgeAccum& a = acc[e];
+    EdgeCalibration& ec = out->edges[e];
+    ec.inflation = used[e] ? se[e] : 1.0;
+    double field_sc = 0;  // Σ_g σ_g² tr(C_gᵀ Σ C_g)
+    for (int k = 0; k < static_cast<int>(a.group.size()); ++k)
+      field_sc += theta[a.group[k]] * a.CSC_diag[k];
+    ec.correlation = used[e] && a.tr_SI > 0 ? 1.0 + field_sc / (se[e] * a.tr_SI) : 1.0;
+    ec.effective_pixels = ec.pixels / ec.correlation;
+    if (!used[e]) continue;
+    Eigen::MatrixXd Xe = (se[e] - 1.0) * a.I;
+    for (int k = 0; k < static_cast<int>(a.group.size()); ++k)
+      Xe.noalias() += theta[a.group[k]] * a.C.col(k) * a.C.col(k).transpose();
+    const int T = static_cast<int>(a.slots.size());
+    for (int p = 0; p < T; ++p)
+      for (int q = 0; q < T; ++q)
+        X.block<6, 6>(6 * a.slots[p], 6 * a.slots[q]) += Xe.block<6, 6>(6 * p, 6 * q);
+  }
+  const Eigen::MatrixXd SX = m.Sigma_r * (m.basis.transpose() * X * m.basis);
+  Eigen::MatrixXd V = m.Sigma_r + SX * m.Sigma_r;
+  V = 0.5 * (V + V.transpose());
+  out->nuisance_sigma = std::sqrt(theta[0]);
+  out->nuisance_fine_sigma = G > 1 ? std::sqrt(theta[1]) : 0.0;
+  out->reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
+}
+
 }  // namespace
 
 SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
@@ -403,7 +761,10 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
     out.edges[e].j = static_cast<int>(s.jj[e]);
   }
   std::vector<double> infl(E, 1.0);
-  const int passes = c.method == SelfCalibrationMethod::Sandwich ? 1 : c.iterations;
+  const bool single_pass =
+      c.method == SelfCalibrationMethod::Sandwich || c.method == SelfCalibrationMethod::Nuisance;
+  const int passes = single_pass ? 1 : c.iterations;
+  const NuisanceBasis basis{c.nuisance_nodes, s.H, s.W};
   const auto clamp = [&](double x) {
     return std::clamp(std::isfinite(x) ? x : c.max_inflation, c.min_inflation, c.max_inflation);
   };
@@ -414,7 +775,8 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
     const DenseModel model = buildModel(cur, o);
     const std::vector<EdgeAccum> acc =
         edgePass(cur, o, model, last && c.method == SelfCalibrationMethod::Autocorr, c.autocorr_lag,
-                 c.score_metric == ScoreMetric::Information);
+                 c.score_metric == ScoreMetric::Information,
+                 c.method == SelfCalibrationMethod::Nuisance ? &basis : nullptr);
     ++out.passes;
     if (it == 0) {
       out.optimum = optimumDistance(model);
@@ -475,6 +837,8 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
         case SelfCalibrationMethod::Sandwich:
           ec.correlation = ratio[e];
           break;
+        case SelfCalibrationMethod::Nuisance:
+          break;  // below
       }
       ec.inflation = infl[e];
       ec.effective_pixels = ec.pixels / ec.correlation;
@@ -498,6 +862,10 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
       Eigen::MatrixXd V = model.Sigma_r * meat * model.Sigma_r;
       V = 0.5 * (V + V.transpose());
       out.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
+    }
+    if (c.method == SelfCalibrationMethod::Nuisance) {
+      nuisanceCovariance(model, acc, &out);
+      out.nuisance_params = 2 * basis.perChannel();
     }
   }
   return out;

@@ -1,5 +1,6 @@
 // The self-calibration settings of the apps (--self-calibrate, --self-calibrate-method,
-// --self-calibrate-iterations, --edge-csv, --converge), shared by dba-covariance and dba-evaluate.
+// --self-calibrate-iterations, --self-calibrate-nodes, --edge-csv, --converge), shared by
+// dba-covariance and dba-evaluate.
 #pragma once
 
 #include <string>
@@ -12,6 +13,7 @@ struct SelfCalibrationAppOptions {
   bool enabled = false;   ///< --self-calibrate (or implied by --self-calibrate-method)
   std::string method;     ///< --self-calibrate-method (default: the core's default)
   int iterations = 0;     ///< --self-calibrate-iterations (0 = the core's default)
+  int nodes = -1;         ///< --self-calibrate-nodes (nuisance's field; -1 = the core's default)
   std::string edge_csv;   ///< --edge-csv (dba-covariance only)
   bool converge = false;  ///< --converge (dba-covariance only)
   /// The core options; throws std::invalid_argument for an unknown method.

@@ -44,10 +44,27 @@
 //             f_e = E[g_eᵀ Σ g_e] / tr(Σ I_e) (what the fit takes out of each cluster's score;
 //             a scalar form of the CR3 correction). Needs more edges than free pose DoF; shape
 //             and scale both come from the scores (noisy for few edges).
-// All but sandwich produce per-edge inflations; selfCalibratedSnapshot() then divides the edge's
-// weights by c_e and DbaCovariance recomputes the covariance. Assumptions: the state is (close to)
-// the optimum of the snapshot's own factors (see distanceFromOptimum), errors are independent
-// across edges, and the linearization holds (high SNR).
+//   nuisance  a per-edge low-order flow error field n_e(x, y) = Φ(x, y) a_e (Φ: affine [1, u, v]
+//             per channel, plus with nuisance_nodes = G ≥ 2 a G×G bilinear tent spline; u, v
+//             the grid coordinates scaled to [−1, 1]) with a_e ~ N(0, D), D = σ_a² on the
+//             affine coefficients and σ_f² on the tents' node values (two variance components
+//             shared by all edges), on top of white noise of variance s_e / λ per edge. The
+//             whitened, depth-reduced nuisance columns give per edge C_e = Σ_{rows of e} v φᵀ
+//             (what the field does to the reduced score), the field's information after the
+//             poses and depths M_e = Φ_eᵀ Λ P⊥ Φ_e (= Φ̃ᵀΛΦ̃ − C_eᵀ Σ C_e) and its score
+//             t_e = Φ̃_eᵀ Λ r, with E[t tᵀ] = M_e D M_e + s_e M_e. σ_a², σ_f² are the
+//             maximum-likelihood estimates over all edges' t (projected Fisher scoring on M_e's
+//             range), s_e = (q_e − |t_e|²_{M_e⁺} + excess) / (ρ_e − rank M_e); alternated to
+//             convergence. The covariance is then that of DBA's actual estimate under this
+//             noise model, Σ (S + Σ_e (s_e − 1) I_e + Σ_e C_e D C_eᵀ) Σ (a model-based
+//             sandwich: no per-edge empirical meat), handed over as a reduced covariance like
+//             sandwich. Captures a smooth error of every edge's field in the pose directions
+//             it reaches; a field finer than the basis is seen only by its white scale s_e.
+// Default: nuisance with nuisance_nodes = 4 (chosen on held-out runs of five noise sources).
+// All but sandwich and nuisance produce per-edge inflations; selfCalibratedSnapshot() then divides
+// the edge's weights by c_e and DbaCovariance recomputes the covariance. Assumptions: the state is
+// (close to) the optimum of the snapshot's own factors (see distanceFromOptimum), errors are
+// independent across edges, and the linearization holds (high SNR).
 #pragma once
 
 #include <cstddef>
@@ -63,15 +80,16 @@
 
 namespace dbacov {
 
-enum class SelfCalibrationMethod { Vce, Autocorr, Score, Sandwich };
+enum class SelfCalibrationMethod { Vce, Autocorr, Score, Sandwich, Nuisance };
 template <>
 struct EnumNames<SelfCalibrationMethod> {
   static constexpr const char* what = "self-calibration method";
-  static constexpr std::array<std::pair<SelfCalibrationMethod, const char*>, 4> entries{
+  static constexpr std::array<std::pair<SelfCalibrationMethod, const char*>, 5> entries{
       {{SelfCalibrationMethod::Score, "score"},
        {SelfCalibrationMethod::Vce, "vce"},
        {SelfCalibrationMethod::Autocorr, "autocorr"},
-       {SelfCalibrationMethod::Sandwich, "sandwich"}}};
+       {SelfCalibrationMethod::Sandwich, "sandwich"},
+       {SelfCalibrationMethod::Nuisance, "nuisance"}}};
 };
 /// Parses a method name (parseEnum); throws std::invalid_argument naming the valid ones.
 inline SelfCalibrationMethod parseSelfCalibrationMethod(const std::string& name) {
@@ -83,13 +101,17 @@ inline SelfCalibrationMethod parseSelfCalibrationMethod(const std::string& name)
 enum class ScoreMetric { Information, Covariance };
 
 struct SelfCalibrationOptions {
-  SelfCalibrationMethod method = SelfCalibrationMethod::Score;
+  /// The default by measurement (README "Self-calibration from the residuals"): nuisance with a
+  /// 4 × 4 spline is the one method inside the region on the correlated sources and on OpenCV flow.
+  SelfCalibrationMethod method = SelfCalibrationMethod::Nuisance;
   int iterations = 1;    ///< reweighting passes of vce / score / autocorr (>= 1)
   int autocorr_lag = 4;  ///< L of autocorr (>= 1)
   /// score: prior degrees of freedom ν₀ of the shrinkage of an edge's score ratio κ_e/scale_e
   /// (ν_e degrees of freedom) towards the pooled ratio: (ν_e ratio_e + ν₀ pooled)/(ν_e + ν₀).
   double score_prior_dof = 30.0;
   ScoreMetric score_metric = ScoreMetric::Covariance;
+  /// nuisance: the field's basis per channel, 0 = affine [1, u, v], G >= 2 = G × G bilinear tents.
+  int nuisance_nodes = 4;
   double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
   double max_inflation = 1e9;
   /// Throws std::invalid_argument for values out of their domain.
@@ -98,15 +120,16 @@ struct SelfCalibrationOptions {
 
 /// What the self-calibration found for one edge.
 struct EdgeCalibration {
-  int edge = 0, i = 0, j = 0;   ///< index into ii/jj, source and target keyframe
-  std::size_t pixels = 0;       ///< pixels with at least one used factor axis
-  std::size_t rows = 0;         ///< used factor axes (w > 0)
-  double residual_rms = 0;      ///< px, RMS of r over the used axes
-  double chi2 = 0;              ///< Σ λ r² with the snapshot's weights
-  double redundancy = 0;        ///< n − Σ lev under the final weights (vce's denominator)
-  double vce_scale = 1;         ///< q / redundancy at the last pass
-  double correlation = 1;       ///< τ (autocorr) or κ·c/vce (score): the factor beyond scale
-  double inflation = 1;         ///< c_e: the edge's variance factor (1 for sandwich)
+  int edge = 0, i = 0, j = 0;  ///< index into ii/jj, source and target keyframe
+  std::size_t pixels = 0;      ///< pixels with at least one used factor axis
+  std::size_t rows = 0;        ///< used factor axes (w > 0)
+  double residual_rms = 0;     ///< px, RMS of r over the used axes
+  double chi2 = 0;             ///< Σ λ r² with the snapshot's weights
+  double redundancy = 0;       ///< n − Σ lev under the final weights (vce's denominator)
+  double vce_scale = 1;        ///< q / redundancy at the last pass
+  /// Beyond scale: τ (autocorr), κ·c/vce (score), 1 + field / white share of q (nuisance).
+  double correlation = 1;
+  double inflation = 1;         ///< c_e: the edge's variance factor (1 for sandwich; nuisance: s_e)
   double effective_pixels = 0;  ///< pixels · vce_scale / inflation (autocorr: pixels / τ)
 };
 
@@ -126,12 +149,17 @@ struct OptimumDistance {
   }
 };
 struct SelfCalibration {
-  SelfCalibrationMethod method = SelfCalibrationMethod::Score;
+  SelfCalibrationMethod method = SelfCalibrationMethod::Nuisance;
   std::vector<EdgeCalibration> edges;  ///< one per snapshot edge, in edge order
   double global_scale = 1;             ///< Σ q / Σ redundancy at the snapshot's weights
   int passes = 0;                      ///< linearizations done
   OptimumDistance optimum;             ///< of the snapshot's state (first pass, its weights)
-  /// Sandwich only: the covariance in the gauge's reduced coordinates (for CovarianceOptions).
+  /// Nuisance only: σ_a (px) of the per-edge field's coefficients, and their number per edge.
+  double nuisance_sigma = 0;
+  double nuisance_fine_sigma = 0;  ///< σ of the G × G tents' node values (px), with nodes >= 2
+  int nuisance_params = 0;
+  /// Sandwich and nuisance: the covariance in the gauge's reduced coordinates (for
+  /// CovarianceOptions).
   std::shared_ptr<const Eigen::MatrixXd> reduced_covariance;
   /// Per-edge inflations in edge order.
   std::vector<double> inflations() const;
