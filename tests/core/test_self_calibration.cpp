@@ -446,12 +446,52 @@ TEST(SelfCalibration, WrongWeightScaleIsCorrected) {
   }
 }
 
+TEST(SelfCalibration, NoiseFreeResidualsAreClampedNotSingular) {
+  // Targets without noise: every residual method finds (almost) no error. The inflations stop at
+  // min_inflation (as documented for every method), the covariances stay finite and positive.
+  sim::ScenarioConfig cfg = smallScenario(13, 24, 32);
+  cfg.noise.amplitude = 0.0;
+  const sim::Scenario sc(cfg);
+  const sim::SimulatedSnapshot sim = sc.simulate(0, 0);
+  const DbaOptions o = sc.config().engineOptions();
+  for (SelfCalibrationMethod m : {SelfCalibrationMethod::Score, SelfCalibrationMethod::Nuisance}) {
+    SelfCalibrationOptions c;
+    c.method = m;
+    const SelfCalibration cal = selfCalibrate(sim.snapshot, o, c);
+    for (const EdgeCalibration& e : cal.edges) {
+      EXPECT_GE(e.inflation, c.min_inflation) << toString(m) << " edge " << e.edge;
+      EXPECT_TRUE(std::isfinite(e.inflation) && std::isfinite(e.correlation));
+    }
+    const DbaCovariance cov = selfCalibratedCovariance(sim.snapshot, o, {}, cal);
+    for (int k : cov.keyframes()) {
+      const Matrix6d P = cov.marginal(k);
+      EXPECT_TRUE(P.allFinite()) << toString(m) << " keyframe " << k;
+      if (P.trace() > 0) {
+        EXPECT_GT(Eigen::SelfAdjointEigenSolver<Matrix6d>(P).eigenvalues().minCoeff(), 0.0);
+      }
+    }
+  }
+}
+
 TEST(SelfCalibration, OptionsAndNamesAreChecked) {
   EXPECT_EQ(parseSelfCalibrationMethod("score"), SelfCalibrationMethod::Score);
+  EXPECT_EQ(parseSelfCalibrationMethod("nuisance"), SelfCalibrationMethod::Nuisance);
+  EXPECT_EQ(SelfCalibrationOptions{}.method, SelfCalibrationMethod::Nuisance);  // the default
   EXPECT_THROW(parseSelfCalibrationMethod("magic"), std::invalid_argument);
   SelfCalibrationOptions c;
   c.iterations = 0;
   EXPECT_THROW(c.validate(), std::invalid_argument);
+  // The nuisance field: affine (0) or 2..8 nodes per side; 1 node is no spline.
+  for (int nodes : {-1, 1, 9}) {
+    SelfCalibrationOptions n;
+    n.nuisance_nodes = nodes;
+    EXPECT_THROW(n.validate(), std::invalid_argument) << nodes;
+  }
+  for (int nodes : {0, 2, 8}) {
+    SelfCalibrationOptions n;
+    n.nuisance_nodes = nodes;
+    EXPECT_NO_THROW(n.validate()) << nodes;
+  }
   const Snapshot s = solvedTiny(4);
   EXPECT_THROW(inflateWeights(s, {1.0}), std::invalid_argument);
 }

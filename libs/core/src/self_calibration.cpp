@@ -582,9 +582,11 @@ double expectedScore(const EdgeAccum& a) {
 /// expected to take beyond the edge's field energy: s_e = (q_e − |y|² + Σ_g σ_g² (tr B_g −
 /// tr M_e,gg)) / (ρ_e − r); the two alternate. The covariance is
 /// Σ (S + Σ_e (s_e − 1) I_e + Σ_g σ_g² C_e,g C_e,gᵀ) Σ in the gauge's reduced coordinates.
-void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
-                        SelfCalibration* out) {
+/// The s_e are clamped to [lo, hi] (the options' inflation bounds, as every method's inflations).
+void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc, double lo,
+                        double hi, SelfCalibration* out) {
   const int E = static_cast<int>(acc.size());
+  const auto clamp = [&](double x) { return std::clamp(std::isfinite(x) ? x : hi, lo, hi); };
   struct FieldEdge {
     int edge;
     Eigen::VectorXd y;
@@ -618,7 +620,7 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
     int rank = 0;
     for (int k = 0; k < ev.size(); ++k) rank += ev[k] > cut && cut > 0;
     used[e] = 1;
-    se[e] = a.q / rho;
+    se[e] = clamp(a.q / rho);
     if (rank == 0) continue;
     const int mn = static_cast<int>(ev.size());
     Eigen::MatrixXd W(rank, mn);
@@ -637,7 +639,7 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
     }
     f.fit = f.y.squaredNorm();
     f.dof = rho - rank;
-    if (f.dof > 0.5) se[e] = std::max(std::max(a.q - f.fit, 0.05 * a.q) / f.dof, 1e-300);
+    if (f.dof > 0.5) se[e] = clamp(std::max(a.q - f.fit, 0.05 * a.q) / f.dof);
     fe.push_back(std::move(f));
   }
   Eigen::VectorXd theta = Eigen::VectorXd::Zero(std::max(G, 1));
@@ -710,7 +712,7 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       if (!(f.dof > 0.5)) continue;
       const double q = acc[f.edge].q;
       const double next =
-          std::max(std::max(q - f.fit + theta.head(G).dot(f.excess), 0.05 * q) / f.dof, 1e-300);
+          clamp(std::max(q - f.fit + theta.head(G).dot(f.excess), 0.05 * q) / f.dof);
       change = std::max(change, std::abs(next / se[f.edge] - 1.0));
       se[f.edge] = next;
     }
@@ -864,7 +866,7 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
       out.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
     }
     if (c.method == SelfCalibrationMethod::Nuisance) {
-      nuisanceCovariance(model, acc, &out);
+      nuisanceCovariance(model, acc, c.min_inflation, c.max_inflation, &out);
       out.nuisance_params = 2 * basis.perChannel();
     }
   }
