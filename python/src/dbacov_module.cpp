@@ -131,13 +131,13 @@ std::string snapshotName(const Snapshot& s) {
 
 /// The self-calibration keywords into the core options by the apps' own builder
 /// (SelfCalibrationAppOptions::options(): the method's name through the enum table, the same
-/// message for an unknown one). A method implies self_calibrate, as --self-calibrate-method does.
+/// message for an unknown one). A method or nodes imply self_calibrate, as their flags do.
 SelfCalibrationAppOptions selfCalibrationOptions(bool self_calibrate,
                                                  std::optional<std::string> method,
                                                  std::optional<int> iterations,
                                                  std::optional<int> nodes, bool converge) {
   SelfCalibrationAppOptions o;
-  o.enabled = self_calibrate || method.has_value();
+  o.enabled = self_calibrate || method.has_value() || nodes.has_value();
   if (method) o.method = *method;
   if (iterations) {
     if (*iterations < 1 || *iterations > 20)  // dba-covariance's CLI::Range(1, 20)
@@ -146,9 +146,14 @@ SelfCalibrationAppOptions selfCalibrationOptions(bool self_calibrate,
     o.iterations = *iterations;
   }
   if (nodes) {
-    if (*nodes < 0 || *nodes > 8)  // dba-covariance's CLI::Range(0, 8)
-      throw std::invalid_argument("self_calibrate_nodes: " + std::to_string(*nodes) +
-                                  " is not in 0..8");
+    // The core's own check (SelfCalibrationOptions::validate), named by the keyword.
+    SelfCalibrationOptions check;
+    check.nuisance_nodes = *nodes;
+    try {
+      check.validate();
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("self_calibrate_nodes: ") + e.what());
+    }
     o.nodes = *nodes;
   }
   o.converge = converge;

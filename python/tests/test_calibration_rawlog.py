@@ -103,8 +103,11 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
     assert r.stderr.splitlines()[0] == "dba-covariance: --gauge: " + str(e.value)
     with pytest.raises(ValueError, match="self_calibrate_iterations: 0 is not in 1..20"):
         dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_iterations=0)
-    with pytest.raises(ValueError, match="nuisance nodes must be 0 .affine. or 2..8"):
-        dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_nodes=1)
+    with pytest.raises(ValueError, match="self_calibrate_nodes: self-calibration nuisance nodes "
+                                         "must be 0 .affine. or 2..8"):
+        dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_nodes=9)
+    with pytest.raises(ValueError, match="nodes apply to the nuisance method only, not score"):
+        dbacov.Covariance(shared_path, self_calibrate_method="score", self_calibrate_nodes=3)
     assert not os.path.exists(tmp_path / "x.csv")
 
 

@@ -239,7 +239,12 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
             "vce, autocorr, sandwich or nuisance"},
            {{"-i", in, "--csv", out, "--self-calibrate-nodes", "1"},
             "--self-calibrate-nodes: self-calibration nuisance nodes must be 0 (affine) or 2..8 "
-            "(G x G bilinear tents)"}}) {
+            "(G x G bilinear tents)"},
+           {{"-i", in, "--csv", out, "--self-calibrate-nodes", "abc"},
+            "--self-calibrate-nodes: 'abc' is not an integer"},
+           {{"-i", in, "--csv", out, "--self-calibrate-method", "score", "--self-calibrate-nodes",
+             "3"},
+            "self-calibration nodes apply to the nuisance method only, not score"}}) {
     const AppResult r = run(args);
     EXPECT_EQ(r.code, 2) << r.err;
     EXPECT_TRUE(contains(r.err, "dba-covariance: " + message + "\n")) << r.err;

@@ -180,7 +180,7 @@ int main(int argc, char** argv) {
               c.score_metric = ScoreMetric::Covariance;
               name.erase(name.find("-cov"), 4);
             }
-            // "-g<G>": nuisance with a G × G tent spline instead of the affine field.
+            // "-g<G>": nuisance with the affine field + a G × G tent spline (G = 0: affine only).
             if (name.find("-g") != std::string::npos) {
               c.nuisance_nodes = std::atoi(name.substr(name.find("-g") + 2).c_str());
               name.erase(name.find("-g"));

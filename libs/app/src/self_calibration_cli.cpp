@@ -17,7 +17,12 @@ SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
   SelfCalibrationOptions o;
   if (!method.empty()) o.method = parseSelfCalibrationMethod(method);
   if (iterations > 0) o.iterations = iterations;
-  if (nodes >= 0) o.nuisance_nodes = nodes;
+  if (nodes >= 0) {
+    if (o.method != SelfCalibrationMethod::Nuisance)
+      throw std::invalid_argument(std::string("self-calibration nodes apply to the nuisance ") +
+                                  "method only, not " + toString(o.method));
+    o.nuisance_nodes = nodes;
+  }
   o.validate();
   return o;
 }
@@ -39,7 +44,8 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
   cli.add_option("--self-calibrate-nodes", o.nodes,
                  "nuisance: the per-edge flow error field, 0 = affine, G = affine + G x G "
                  "bilinear spline per channel (default " +
-                     std::to_string(SelfCalibrationOptions{}.nuisance_nodes) + ")")
+                     std::to_string(SelfCalibrationOptions{}.nuisance_nodes) +
+                     "); implies --self-calibrate")
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {
             // The core's own check and message (SelfCalibrationOptions::validate).
@@ -58,7 +64,8 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
             }
             return {};
           },
-          "INT in {0, 2..8}"));
+          "INT in {0, 2..8}"))
+      ->each([&o](const std::string&) { o.enabled = true; });
   if (!outputs) return;
   cli.add_option("--edge-csv", o.edge_csv,
                  "With --self-calibrate: one row per (snapshot, edge): pixels, residual RMS, "

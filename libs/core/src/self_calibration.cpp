@@ -583,8 +583,8 @@ double expectedScore(const EdgeAccum& a) {
 /// tr M_e,gg)) / (ρ_e − r); the two alternate. The covariance is
 /// Σ (S + Σ_e (s_e − 1) I_e + Σ_g σ_g² C_e,g C_e,gᵀ) Σ in the gauge's reduced coordinates.
 /// The s_e are clamped to [lo, hi] (the options' inflation bounds, as every method's inflations).
-void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc, double lo,
-                        double hi, SelfCalibration* out) {
+void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc, int groups,
+                        double lo, double hi, SelfCalibration* out) {
   const int E = static_cast<int>(acc.size());
   const auto clamp = [&](double x) { return std::clamp(std::isfinite(x) ? x : hi, lo, hi); };
   struct FieldEdge {
@@ -597,7 +597,7 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc, 
   std::vector<FieldEdge> fe;
   std::vector<double> se(E, 1.0);
   std::vector<char> used(E, 0);
-  int G = 0;
+  const int G = groups;  // variance components (every edge's group indices are below it)
   // The field scores of the residual projected off the poses too, Φᵀ P⊥ r = t_e − C_eᵀ Σ g
   // (g the depth-reduced gradient; zero at the optimum, where this changes nothing).
   Eigen::VectorXd grad = Eigen::VectorXd::Zero(m.Sigma.rows());
@@ -607,7 +607,6 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc, 
     const EdgeAccum& a = acc[e];
     const double rho = out->edges[e].redundancy;
     if (a.rows == 0 || !(rho > 0.5) || a.Mn.size() == 0) continue;
-    G = static_cast<int>(a.An.size());
     Eigen::VectorXd sg(6 * a.slots.size());
     for (std::size_t b = 0; b < a.slots.size(); ++b)
       sg.segment<6>(6 * b) = Sg.segment<6>(6 * a.slots[b]);
@@ -642,7 +641,7 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc, 
     if (f.dof > 0.5) se[e] = clamp(std::max(a.q - f.fit, 0.05 * a.q) / f.dof);
     fe.push_back(std::move(f));
   }
-  Eigen::VectorXd theta = Eigen::VectorXd::Zero(std::max(G, 1));
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(G);
   // The log-likelihood, its gradient and Fisher information in θ = (σ_g²) at fixed s_e.
   const auto evaluate = [&](const Eigen::VectorXd& th, Eigen::VectorXd* score,
                             Eigen::MatrixXd* info) {
@@ -676,7 +675,9 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc, 
     for (int it = 0; it < 100; ++it) {
       Eigen::VectorXd score;
       Eigen::MatrixXd info;
-      evaluate(theta, &score, &info);
+      // A covariance that is not positive definite ends the search where it is (it cannot
+      // happen with s_e > 0; the partial score and information are not used).
+      if (!std::isfinite(evaluate(theta, &score, &info))) break;
       // Coordinates held at 0 whose score points below 0 stay there.
       std::vector<int> free;
       for (int g = 0; g < G; ++g)
@@ -866,7 +867,7 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
       out.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
     }
     if (c.method == SelfCalibrationMethod::Nuisance) {
-      nuisanceCovariance(model, acc, c.min_inflation, c.max_inflation, &out);
+      nuisanceCovariance(model, acc, basis.groups(), c.min_inflation, c.max_inflation, &out);
       out.nuisance_params = 2 * basis.perChannel();
     }
   }

@@ -16,7 +16,8 @@ struct SelfCalibrationAppOptions {
   int nodes = -1;         ///< --self-calibrate-nodes (nuisance's field; -1 = the core's default)
   std::string edge_csv;   ///< --edge-csv (dba-covariance only)
   bool converge = false;  ///< --converge (dba-covariance only)
-  /// The core options; throws std::invalid_argument for an unknown method.
+  /// The core options; throws std::invalid_argument for an unknown method, or nodes given for
+  /// another method than nuisance.
   SelfCalibrationOptions options() const;
 };
 
