@@ -5,9 +5,9 @@
 // claim (a wrong `weight_scale`) and correlated within an edge (smooth flow errors). The
 // residuals r = target − π(Y) at the linearization point (DBA's optimum) carry both: this module
 // estimates per edge e a variance factor ("inflation") c_e, so that the edge's pixel information
-// becomes Λ / c_e, or (sandwich) a robust covariance of the poses, and the query API of
-// DbaCovariance answers with the calibrated model. Conventions: docs/conventions.md §2 (factor),
-// §3 (tangent), §4 (Schur complement and gauge).
+// becomes Λ / c_e, or (sandwich, nuisance) a covariance of the poses under the fitted noise
+// model, and the query API of DbaCovariance answers with the calibrated model. Conventions:
+// docs/conventions.md §2 (factor), §3 (tangent), §4 (Schur complement and gauge).
 //
 // Notation, for the whitened rows of edge e (one per pixel and axis with w > 0): λ the row's
 // information, u its pose Jacobian on the slots that the source keyframe touches, J_d its depth
