@@ -141,8 +141,12 @@ TEST(Summary, CoverageInflationAndRegionOfKnownSamples) {
     EXPECT_NEAR(st.coverage_all[m], nominal[m], 0.01) << m + 1 << " sigma";
     for (int q = 0; q < 6; ++q) EXPECT_NEAR(st.coverage(q, m), nominal[m], 0.02);
   }
+  // 12000 samples: the tail's binomial σ is 0.2 %; 4σ.
+  EXPECT_NEAR(st.tail_95, 0.05, 0.008);
   // Covariances 9× too small: NEES ×9, the fitted inflation is 9 and undoes it.
   const std::vector<NeesSample> small = inflate(s, 1.0 / 9.0);
+  // χ²₆ > 12.59 / 9 = 1.40 has probability 0.966.
+  EXPECT_NEAR(summarize(small).tail_95, 0.966, 0.01);
   EXPECT_NEAR(summarize(small).anees, 9 * st.anees, 1e-9 * st.anees);
   EXPECT_FALSE(summarize(small).inside);
   EXPECT_NEAR(fitInflation(small), 9 * st.anees / 6.0, 1e-9);

@@ -34,6 +34,8 @@ void printStats(std::ostream& out, const ConsistencyStats& st, const std::string
       << fmt("%.1f", 100 * st.coverage_all[1]) << " / " << fmt("%.1f", 100 * st.coverage_all[2])
       << " % (nominal " << fmt("%.1f", 100 * nominal[0]) << " / " << fmt("%.1f", 100 * nominal[1])
       << " / " << fmt("%.1f", 100 * nominal[2]) << ")\n";
+  out << indent << "NEES above chi2(0.95): " << fmt("%.1f", 100 * st.tail_95)
+      << " % of samples (nominal 5.0)\n";
   static const char* axes[6] = {"rho_x", "rho_y", "rho_z", "phi_x", "phi_y", "phi_z"};
   out << indent << "1-sigma per axis:";
   for (int i = 0; i < 6; ++i) out << ' ' << axes[i] << ' ' << fmt("%.1f", 100 * st.coverage(i, 0));
@@ -55,6 +57,7 @@ nlohmann::json statsJson(const ConsistencyStats& st) {
           {"inside", st.inside},
           {"coverage", {st.coverage_all[0], st.coverage_all[1], st.coverage_all[2]}},
           {"coverage_per_axis", per_axis},
+          {"tail_95", st.tail_95},
           {"spearman_translation", st.spearman_translation},
           {"spearman_rotation", st.spearman_rotation}};
 }

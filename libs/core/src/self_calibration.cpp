@@ -57,6 +57,12 @@ Snapshot inflateWeights(const Snapshot& s, const std::vector<double>& inflation)
 
 namespace {
 
+/// Every method's inflations and white scales are clamped to the options' bounds; a non-finite
+/// value (no information to estimate it from) becomes the upper bound.
+double clampInflation(double x, double lo, double hi) {
+  return std::clamp(std::isfinite(x) ? x : hi, lo, hi);
+}
+
 /// The linearization, gauge and dense pose covariance of one state and weighting.
 struct DenseModel {
   DbaNormalEquations ne;
@@ -586,7 +592,7 @@ double expectedScore(const EdgeAccum& a) {
 void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc, int groups,
                         double lo, double hi, SelfCalibration* out) {
   const int E = static_cast<int>(acc.size());
-  const auto clamp = [&](double x) { return std::clamp(std::isfinite(x) ? x : hi, lo, hi); };
+  const auto clamp = [&](double x) { return clampInflation(x, lo, hi); };
   struct FieldEdge {
     int edge;
     Eigen::VectorXd y;
@@ -768,9 +774,7 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
       c.method == SelfCalibrationMethod::Sandwich || c.method == SelfCalibrationMethod::Nuisance;
   const int passes = single_pass ? 1 : c.iterations;
   const NuisanceBasis basis{c.nuisance_nodes, s.H, s.W};
-  const auto clamp = [&](double x) {
-    return std::clamp(std::isfinite(x) ? x : c.max_inflation, c.min_inflation, c.max_inflation);
-  };
+  const auto clamp = [&](double x) { return clampInflation(x, c.min_inflation, c.max_inflation); };
   for (int it = 0; it < passes; ++it) {
     const bool last = it + 1 == passes;
     const Snapshot inflated = it == 0 ? Snapshot() : inflateWeights(s, infl);

@@ -184,10 +184,12 @@ ConsistencyStats summarize(const std::vector<NeesSample>& all, double alpha) {
   Eigen::Matrix<double, 6, 3> hits = Eigen::Matrix<double, 6, 3>::Zero();
   Vector6d counted = Vector6d::Zero();
   std::vector<double> pt, et, pr, er;
+  std::size_t above = 0;
   for (const NeesSample* x : s) {
     runs.insert(x->run);
     sum_nees += x->nees.value;
     sum_dof += x->nees.dof;
+    above += x->nees.value > chiSquareQuantile(0.95, x->nees.dof);
     const double smax = x->Sigma.diagonal().maxCoeff();
     for (int i = 0; i < 6; ++i) {
       const double var = x->Sigma(i, i);
@@ -205,6 +207,7 @@ ConsistencyStats summarize(const std::vector<NeesSample>& all, double alpha) {
   st.dof = sum_dof / st.samples;
   st.region = aneesRegion(st.dof, st.runs, alpha);
   st.inside = st.region.contains(st.anees);
+  st.tail_95 = static_cast<double>(above) / st.samples;
   for (int i = 0; i < 6; ++i)
     if (counted[i] > 0) st.coverage.row(i) = hits.row(i) / counted[i];
   for (int m = 0; m < 3; ++m)

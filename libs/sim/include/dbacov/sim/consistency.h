@@ -16,6 +16,9 @@
 //           too narrow) for the pooled ANEES, and exact for one sample per run.
 // Coverage: per axis i, the fraction of samples with |e_i| <= m·sqrt(Σ_ii), m = 1, 2, 3; nominal
 //           68.27 / 95.45 / 99.73 % for a Gaussian.
+// Tail:     the fraction of samples with NEES above χ²_dof(0.95); nominal 5 %. It sees what the
+//           ANEES averages away: a covariance too wide in most directions and too narrow in a
+//           few has a fair ANEES and a heavy tail.
 // Spearman: rank correlation (ties get their average rank) between the predicted uncertainty
 //           sqrt(trace Σ_block) and the actual error norm |e_block|, for the translation and the
 //           rotation blocks: does a larger predicted uncertainty go with a larger error?
@@ -83,6 +86,7 @@ struct ConsistencyStats {
   /// coverage(i, m − 1): fraction of samples with |e_i| <= m σ_i (axes with σ_i > 0 only).
   Eigen::Matrix<double, 6, 3> coverage = Eigen::Matrix<double, 6, 3>::Zero();
   std::array<double, 3> coverage_all{};  ///< pooled over the six axes
+  double tail_95 = 0;                    ///< fraction with NEES > χ²_dof(0.95) (nominal 0.05)
   double spearman_translation = 0;       ///< 0 when undefined (fewer than 3 samples, constant)
   double spearman_rotation = 0;
 };
