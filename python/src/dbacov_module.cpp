@@ -27,6 +27,7 @@
 #include "dbacov/core/snapshot.h"
 #include "dbacov/core/threads.h"
 #include "dbacov/io/snapshot_npz.h"
+#include "dbacov/sim/bootstrap.h"
 #include "dbacov/sim/dba_solver.h"
 
 namespace py = pybind11;
@@ -166,10 +167,16 @@ py::dict calibrationDict(const SelfCalibration& cal) {
   d["method"] = std::string(toString(cal.method));
   d["global_scale"] = cal.global_scale;
   d["passes"] = cal.passes;
-  if (cal.method == SelfCalibrationMethod::Nuisance) {
+  if (cal.method == SelfCalibrationMethod::Nuisance ||
+      cal.method == SelfCalibrationMethod::Bootstrap) {
     d["field_sigma"] = cal.nuisance_sigma;
     d["field_fine_sigma"] = cal.nuisance_fine_sigma;
     d["field_params"] = cal.nuisance_params;
+  }
+  if (cal.method == SelfCalibrationMethod::Bootstrap) {
+    d["bootstrap_scale"] = cal.bootstrap_scale;
+    d["bootstrap_replicates"] = cal.bootstrap_replicates;
+    d["bootstrap_failed"] = cal.bootstrap_failed;
   }
   py::dict opt;
   opt["gradient_norm"] = cal.optimum.gradient_norm;
@@ -412,7 +419,7 @@ PYBIND11_MODULE(_dbacov, m) {
              }
              c->snapshot = snap;
              if (sc.enabled) {
-               c->calibration = selfCalibrate(*c->snapshot, c->options, sc.options());
+               c->calibration = runSelfCalibration(*c->snapshot, c->options, sc.options());
                c->cov = std::make_unique<DbaCovariance>(
                    selfCalibratedCovariance(*c->snapshot, c->options, so, *c->calibration));
              } else {

@@ -90,7 +90,7 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
     with pytest.raises(ValueError) as e:
         dbacov.Covariance(shared_path, self_calibrate_method="bogus")
     assert str(e.value) == ("unknown self-calibration method 'bogus', expected score, vce, "
-                            "autocorr, sandwich or nuisance")
+                            "autocorr, sandwich, nuisance or bootstrap")
     r = run_cli("-i", shared_path, "--csv", str(tmp_path / "x.csv"),
                 "--self-calibrate-method", "bogus")
     assert r.returncode == 2
@@ -106,9 +106,22 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
     with pytest.raises(ValueError, match="self_calibrate_nodes: self-calibration nuisance nodes "
                                          "must be 0 .affine. or 2..8"):
         dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_nodes=9)
-    with pytest.raises(ValueError, match="nodes apply to the nuisance method only, not score"):
+    with pytest.raises(ValueError, match="nodes apply to the nuisance and bootstrap methods only, not score"):
         dbacov.Covariance(shared_path, self_calibrate_method="score", self_calibrate_nodes=3)
     assert not os.path.exists(tmp_path / "x.csv")
+
+
+def test_bootstrap_method_reports_its_scales(sim_dir):
+    # A small simulated snapshot (the shared one takes ~4 s per 32 replicates): the bootstrap's
+    # scales are in the dict next to the nuisance field it scales.
+    path = str(sorted(sim_dir.glob("snapshot_*.npz"))[0])
+    cal = dbacov.Covariance(path, weight_scale=4,
+                            self_calibrate_method="bootstrap").self_calibration
+    assert cal["method"] == "bootstrap"
+    assert cal["bootstrap_replicates"] + cal["bootstrap_failed"] == 32
+    assert cal["bootstrap_replicates"] >= 16
+    assert 0.5 < cal["bootstrap_scale"] < 3.0
+    assert "field_sigma" in cal
 
 
 # --- pose rawlogs -----------------------------------------------------------------------------

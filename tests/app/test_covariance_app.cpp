@@ -236,7 +236,7 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
             "--gauge: unknown gauge 'three-pose', expected two-pose, minimal or droid"},
            {{"-i", in, "--csv", out, "--self-calibrate-method", "bogus"},
             "--self-calibrate-method: unknown self-calibration method 'bogus', expected score, "
-            "vce, autocorr, sandwich or nuisance"},
+            "vce, autocorr, sandwich, nuisance or bootstrap"},
            {{"-i", in, "--csv", out, "--self-calibrate-nodes", "1"},
             "--self-calibrate-nodes: self-calibration nuisance nodes must be 0 (affine) or 2..8 "
             "(G x G bilinear tents)"},
@@ -244,7 +244,12 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
             "--self-calibrate-nodes: 'abc' is not an integer"},
            {{"-i", in, "--csv", out, "--self-calibrate-method", "score", "--self-calibrate-nodes",
              "3"},
-            "self-calibration nodes apply to the nuisance method only, not score"}}) {
+            "self-calibration nodes apply to the nuisance and bootstrap methods only, not score"},
+           {{"-i", in, "--csv", out, "--self-calibrate-replicates", "8"},
+            "self-calibration replicates apply to the bootstrap method only, not nuisance"},
+           {{"-i", in, "--csv", out, "--self-calibrate-method", "bootstrap",
+             "--self-calibrate-replicates", "3"},
+            "--self-calibrate-replicates: Value 3 not in range 4 to 100000"}}) {
     const AppResult r = run(args);
     EXPECT_EQ(r.code, 2) << r.err;
     EXPECT_TRUE(contains(r.err, "dba-covariance: " + message + "\n")) << r.err;

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "dbacov/io/atomic_file.h"
+#include "dbacov/sim/bootstrap.h"
 #include "dbacov/sim/dba_solver.h"
 #include "engine_cli.h"
 
@@ -18,10 +19,16 @@ SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
   if (!method.empty()) o.method = parseSelfCalibrationMethod(method);
   if (iterations > 0) o.iterations = iterations;
   if (nodes >= 0) {
-    if (o.method != SelfCalibrationMethod::Nuisance)
+    if (o.method != SelfCalibrationMethod::Nuisance && o.method != SelfCalibrationMethod::Bootstrap)
       throw std::invalid_argument(std::string("self-calibration nodes apply to the nuisance ") +
-                                  "method only, not " + toString(o.method));
+                                  "and bootstrap methods only, not " + toString(o.method));
     o.nuisance_nodes = nodes;
+  }
+  if (replicates >= 0) {
+    if (o.method != SelfCalibrationMethod::Bootstrap)
+      throw std::invalid_argument(std::string("self-calibration replicates apply to the ") +
+                                  "bootstrap method only, not " + toString(o.method));
+    o.bootstrap_replicates = replicates;
   }
   o.validate();
   return o;
@@ -65,6 +72,12 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
             return {};
           },
           "INT in {0, 2..8}"))
+      ->each([&o](const std::string&) { o.enabled = true; });
+  cli.add_option("--self-calibrate-replicates", o.replicates,
+                 "bootstrap: re-solved replicates of each snapshot (default " +
+                     std::to_string(SelfCalibrationOptions{}.bootstrap_replicates) +
+                     "); implies --self-calibrate")
+      ->check(CLI::Range(4, 100000))
       ->each([&o](const std::string&) { o.enabled = true; });
   if (!outputs) return;
   cli.add_option("--edge-csv", o.edge_csv,
@@ -113,7 +126,7 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     if (!text.empty()) warnings_[s.index] = text;
     return std::make_unique<DbaCovariance>(s, o, solver);
   }
-  const SelfCalibration cal = selfCalibrate(s, o, options_);
+  const SelfCalibration cal = runSelfCalibration(s, o, options_);
   auto cov = std::make_unique<DbaCovariance>(selfCalibratedCovariance(s, o, solver, cal));
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -136,9 +149,14 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   for (const EdgeCalibration& e : cal.edges)
     if (e.rows > 0) inflations_.push_back(e.inflation);
   scales_.push_back(cal.global_scale);
-  if (cal.method == SelfCalibrationMethod::Nuisance) {
+  if (cal.method == SelfCalibrationMethod::Nuisance ||
+      cal.method == SelfCalibrationMethod::Bootstrap) {
     field_sigmas_.push_back(cal.nuisance_sigma);
     fine_sigmas_.push_back(cal.nuisance_fine_sigma);
+  }
+  if (cal.method == SelfCalibrationMethod::Bootstrap) {
+    boot_scales_.push_back(cal.bootstrap_scale);
+    boot_failed_ += cal.bootstrap_failed;
   }
   steps_.push_back(cal.optimum.step_sigma / std::sqrt(std::max(1, cal.optimum.free_dof)));
   ++snapshots_;
@@ -182,6 +200,14 @@ std::string SelfCalibrationRun::summaryLine() const {
     if (options_.nuisance_nodes >= 2)
       os << ", " << number(median(fine_sigmas_)) << " px (" << options_.nuisance_nodes << "x"
          << options_.nuisance_nodes << " spline)";
+  }
+  if (!boot_scales_.empty()) {
+    const auto [lo, hi] = std::minmax_element(boot_scales_.begin(), boot_scales_.end());
+    os << ", bootstrap scale median " << number(median(boot_scales_)) << " (" << number(*lo)
+       << " to " << number(*hi) << ", " << options_.bootstrap_replicates
+       << " replicates per snapshot";
+    if (boot_failed_) os << ", " << boot_failed_ << " unconverged left out";
+    os << ")";
   }
   if (snapshots_ > 0) os << ", " << number(seconds_ / snapshots_) << " s per snapshot";
   if (!steps_.empty())

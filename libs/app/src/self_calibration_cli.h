@@ -53,6 +53,8 @@ class SelfCalibrationRun {
   std::map<std::int64_t, std::string> rows_;  ///< per snapshot index, CSV rows
   std::vector<double> inflations_, scales_, steps_;
   std::vector<double> field_sigmas_, fine_sigmas_;  ///< nuisance: σ_a, σ_f per snapshot
+  std::vector<double> boot_scales_;                 ///< bootstrap: k per snapshot
+  int boot_failed_ = 0;                             ///< bootstrap: unconverged replicates
   std::map<std::int64_t, std::string> warnings_;
   int snapshots_ = 0, unreliable_ = 0, converged_ = 0;
   double seconds_ = 0;

@@ -17,6 +17,7 @@
 #include "dbacov/core/errors.h"
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/linearization.h"
+#include "dbacov/core/nuisance_basis.h"
 #include "dbacov/core/parallel.h"
 
 namespace dbacov {
@@ -26,6 +27,8 @@ void SelfCalibrationOptions::validate() const {
   if (autocorr_lag < 1) throw std::invalid_argument("self-calibration autocorr lag must be >= 1");
   if (!(min_inflation > 0) || !(max_inflation >= min_inflation) || !std::isfinite(max_inflation))
     throw std::invalid_argument("self-calibration inflation bounds must satisfy 0 < min <= max");
+  if (bootstrap_replicates < 4)
+    throw std::invalid_argument("self-calibration bootstrap replicates must be >= 4");
   if (nuisance_nodes != 0 && !(nuisance_nodes >= 2 && nuisance_nodes <= 8))
     throw std::invalid_argument(
         "self-calibration nuisance nodes must be 0 (affine) or 2..8 (G x G bilinear tents)");
@@ -124,39 +127,6 @@ struct EdgeAccum {
   std::vector<int> group;    ///< the group of each of the m coordinates
   Eigen::VectorXd t;         ///< m, the field's depth-reduced score Φ̃ᵀ Λ r
   Eigen::VectorXd CSC_diag;  ///< diag(Cᵀ Σ C)
-};
-
-/// The nuisance field's basis on the H × W grid, per channel: the affine [1, u, v] (group 0) and,
-/// with nodes G >= 2, G × G bilinear tents (group 1), on u, v ∈ [−1, 1] (the grid's pixel centres
-/// scaled by half its size). Each group has its own variance: a field is affine, or finer, or both.
-/// A pixel touches the affine three and the four tents of its spline cell, so every sum over
-/// pixels runs on those (active()) coordinates, cell by cell.
-struct NuisanceBasis {
-  int nodes = 0, H = 1, W = 1;
-  int perChannel() const { return 3 + (nodes >= 2 ? nodes * nodes : 0); }
-  int groups() const { return nodes >= 2 ? 2 : 1; }
-  /// The group of coordinate k of an edge's field (channel-major: [x channel | y channel]).
-  int groupOf(int k) const { return k % perChannel() < 3 ? 0 : 1; }
-  int active() const { return nodes >= 2 ? 7 : 3; }  ///< basis functions non-zero at a pixel
-  int cells() const { return nodes >= 2 ? (nodes - 1) * (nodes - 1) : 1; }
-  /// The active coordinates of pixel (x, y) within a channel's perChannel() and their values;
-  /// returns the pixel's spline cell (0 for the affine basis).
-  int eval(int x, int y, int* index, double* value) const {
-    const double u = (x - 0.5 * (W - 1)) / (0.5 * W), v = (y - 0.5 * (H - 1)) / (0.5 * H);
-    index[0] = 0, index[1] = 1, index[2] = 2;
-    value[0] = 1.0, value[1] = u, value[2] = v;
-    if (nodes < 2) return 0;
-    const double step = 2.0 / (nodes - 1);
-    const double pu = (u + 1.0) / step, pv = (v + 1.0) / step;
-    const int b = std::clamp(static_cast<int>(std::floor(pu)), 0, nodes - 2);
-    const int a = std::clamp(static_cast<int>(std::floor(pv)), 0, nodes - 2);
-    const double wu = pu - b, wv = pv - a;
-    const int k0 = 3 + a * nodes + b;
-    index[3] = k0, index[4] = k0 + 1, index[5] = k0 + nodes, index[6] = k0 + nodes + 1;
-    value[3] = (1 - wv) * (1 - wu), value[4] = (1 - wv) * wu;
-    value[5] = wv * (1 - wu), value[6] = wv * wu;
-    return a * (nodes - 1) + b;
-  }
 };
 
 struct Row {
@@ -759,6 +729,10 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
                               const SelfCalibrationOptions& c) {
   o.validate();
   c.validate();
+  if (c.method == SelfCalibrationMethod::Bootstrap)
+    throw std::invalid_argument(
+        "the bootstrap self-calibration re-solves the DBA: run it with runSelfCalibration "
+        "(dbacov/sim/bootstrap.h)");
   s.validate();
   const int E = s.numEdges();
   SelfCalibration out;
@@ -845,7 +819,8 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
           ec.correlation = ratio[e];
           break;
         case SelfCalibrationMethod::Nuisance:
-          break;  // below
+        case SelfCalibrationMethod::Bootstrap:  // refused above
+          break;                                // below
       }
       ec.inflation = infl[e];
       ec.effective_pixels = ec.pixels / ec.correlation;

@@ -1,6 +1,7 @@
 #include "dbacov/sim/monte_carlo.h"
 
 #include "dbacov/core/covariance.h"
+#include "dbacov/sim/bootstrap.h"
 
 namespace dbacov::sim {
 
@@ -14,9 +15,9 @@ EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& sim, const DbaOption
                                    const SelfCalibrationOptions* self_calibration) {
   const Snapshot& s = sim.snapshot;
   const DbaCovariance cov =
-      self_calibration
-          ? selfCalibratedCovariance(s, options, {}, selfCalibrate(s, options, *self_calibration))
-          : DbaCovariance(s, options);
+      self_calibration ? selfCalibratedCovariance(s, options, {},
+                                                  runSelfCalibration(s, options, *self_calibration))
+                       : DbaCovariance(s, options);
   const std::string prefix = "s" + std::to_string(s.label()) + "/";
   EvaluationSamples out;
   for (int k : cov.keyframes()) {

@@ -1,5 +1,6 @@
 // The self-calibration settings of the apps (--self-calibrate, --self-calibrate-method,
-// --self-calibrate-iterations, --self-calibrate-nodes, --edge-csv, --converge), shared by
+// --self-calibrate-iterations, --self-calibrate-nodes, --self-calibrate-replicates, --edge-csv,
+// --converge), shared by
 // dba-covariance and dba-evaluate.
 #pragma once
 
@@ -14,10 +15,11 @@ struct SelfCalibrationAppOptions {
   std::string method;     ///< --self-calibrate-method (default: the core's default)
   int iterations = 0;     ///< --self-calibrate-iterations (0 = the core's default)
   int nodes = -1;         ///< --self-calibrate-nodes (nuisance's field; -1 = the core's default)
+  int replicates = -1;    ///< --self-calibrate-replicates (bootstrap; -1 = the core's default)
   std::string edge_csv;   ///< --edge-csv (dba-covariance only)
   bool converge = false;  ///< --converge (dba-covariance only)
   /// The core options; throws std::invalid_argument for an unknown method, or nodes given for
-  /// another method than nuisance.
+  /// another method than nuisance or bootstrap, or replicates for another than bootstrap.
   SelfCalibrationOptions options() const;
 };
 

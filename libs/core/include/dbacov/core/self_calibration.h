@@ -61,6 +61,16 @@
 //             sandwich: no per-edge empirical meat), handed over as a reduced covariance like
 //             sandwich. Captures a smooth error of every edge's field in the pose directions
 //             it reaches; a field finer than the basis is seen only by its white scale s_e.
+//   bootstrap nuisance, then a parametric bootstrap that re-solves the DBA: R replicates of the
+//             snapshot whose targets are the state's predicted flow plus noise drawn from the
+//             fitted model (white of variance s_e / λ, fields a_e ~ N(0, D)), each solved to
+//             the optimum from the state (the project's DBA solver) and calibrated like the
+//             snapshot. The state against each replicate's estimate and covariance is the
+//             evaluation's NEES with the state as the truth; per keyframe its mean over 6 is k_a
+//             (1 up to sampling, sd √(2 / 6R), where the solve is linear; beyond it what the
+//             solve's nonlinearity at low SNR adds). The covariance is D^½ V D^½, D = k_a per
+//             keyframe. Needs the solver, so it runs through runSelfCalibration
+//             (dbacov/sim/bootstrap.h); selfCalibrate refuses it.
 // Default: nuisance with nuisance_nodes = 4 (developed on one set of simulated runs, confirmed on
 // runs it was not tuned on; README "Self-calibration from the residuals").
 // All but sandwich and nuisance produce per-edge inflations; selfCalibratedSnapshot() then divides
@@ -82,16 +92,17 @@
 
 namespace dbacov {
 
-enum class SelfCalibrationMethod { Vce, Autocorr, Score, Sandwich, Nuisance };
+enum class SelfCalibrationMethod { Vce, Autocorr, Score, Sandwich, Nuisance, Bootstrap };
 template <>
 struct EnumNames<SelfCalibrationMethod> {
   static constexpr const char* what = "self-calibration method";
-  static constexpr std::array<std::pair<SelfCalibrationMethod, const char*>, 5> entries{
+  static constexpr std::array<std::pair<SelfCalibrationMethod, const char*>, 6> entries{
       {{SelfCalibrationMethod::Score, "score"},
        {SelfCalibrationMethod::Vce, "vce"},
        {SelfCalibrationMethod::Autocorr, "autocorr"},
        {SelfCalibrationMethod::Sandwich, "sandwich"},
-       {SelfCalibrationMethod::Nuisance, "nuisance"}}};
+       {SelfCalibrationMethod::Nuisance, "nuisance"},
+       {SelfCalibrationMethod::Bootstrap, "bootstrap"}}};
 };
 /// Parses a method name (parseEnum); throws std::invalid_argument naming the valid ones.
 inline SelfCalibrationMethod parseSelfCalibrationMethod(const std::string& name) {
@@ -116,6 +127,10 @@ struct SelfCalibrationOptions {
   ScoreMetric score_metric = ScoreMetric::Covariance;
   /// nuisance: the field's basis per channel, 0 = affine [1, u, v], G >= 2 = G × G bilinear tents.
   int nuisance_nodes = 4;
+  /// bootstrap: re-solved replicates (>= 4) and the seed of their noise (the same seed gives the
+  /// same covariance, whatever the number of threads).
+  int bootstrap_replicates = 32;
+  unsigned long long bootstrap_seed = 1;
   double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
   double max_inflation = 1e9;
   /// Throws std::invalid_argument for values out of their domain.
@@ -162,6 +177,13 @@ struct SelfCalibration {
   double nuisance_sigma = 0;
   double nuisance_fine_sigma = 0;  ///< σ of the G × G tents' node values (px), with nodes >= 2
   int nuisance_params = 0;
+  /// Bootstrap only: the scale k of the nuisance covariance, the replicates it is the mean of
+  /// and those left out because their solve did not converge.
+  double bootstrap_scale = 1;
+  /// Per graph keyframe (ascending), the scale k_a of its marginal (1 for a fixed keyframe).
+  std::vector<double> bootstrap_keyframe_scales;
+  int bootstrap_replicates = 0;
+  int bootstrap_failed = 0;
   /// Sandwich and nuisance: the covariance in the gauge's reduced coordinates (for
   /// CovarianceOptions).
   std::shared_ptr<const Eigen::MatrixXd> reduced_covariance;
@@ -171,7 +193,9 @@ struct SelfCalibration {
 
 /// Estimates the noise of every edge from the snapshot's residuals. Throws InputError for an
 /// invalid snapshot, std::invalid_argument for invalid options and NumericalError when the
-/// reduced system is not positive definite or (sandwich) there are not enough edges.
+/// reduced system is not positive definite or (sandwich) there are not enough edges;
+/// std::invalid_argument for the bootstrap method, which needs the DBA solver
+/// (runSelfCalibration, dbacov/sim/bootstrap.h).
 SelfCalibration selfCalibrate(const Snapshot& snapshot, const DbaOptions& options,
                               const SelfCalibrationOptions& calibration = {});
 

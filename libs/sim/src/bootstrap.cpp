@@ -1,0 +1,170 @@
+// The parametric bootstrap of the nuisance self-calibration (bootstrap.h).
+#include "dbacov/sim/bootstrap.h"
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+
+#include "dbacov/core/dba_factor.h"
+#include "dbacov/core/errors.h"
+#include "dbacov/core/gauge.h"
+#include "dbacov/core/linearization.h"
+#include "dbacov/core/nuisance_basis.h"
+#include "dbacov/core/parallel.h"
+#include "dbacov/core/se3.h"
+
+namespace dbacov {
+
+namespace {
+
+/// One replicate: the snapshot with targets π(state) + noise of the fitted model (edges with
+/// ii == jj, the stereo depth factors, keep theirs), solved from the state and calibrated like
+/// the snapshot (nuisance). Returns [joint NEES, NEES of each slot (0 for a fixed one)] of the
+/// state against the replicate's estimate and covariance, or an empty vector when the solve did
+/// not converge or the replicate's covariance could not be computed.
+Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolverOptions& solver,
+                          const SelfCalibration& cal, const NuisanceBasis& basis,
+                          const std::vector<int>& keyframes, const SelfCalibrationOptions& opts,
+                          unsigned long long seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01;
+  Snapshot b = s;
+  const int HW = static_cast<int>(s.pixelsPerFrame()), mb = basis.perChannel(), na = basis.active();
+  const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
+  const double sd[2] = {cal.nuisance_sigma, cal.nuisance_fine_sigma};
+  std::vector<int> index(na);
+  std::vector<double> value(na), field(2 * mb);
+  for (int e = 0; e < s.numEdges(); ++e) {
+    const int i = static_cast<int>(s.ii[e]), j = static_cast<int>(s.jj[e]);
+    if (i == j) continue;
+    for (int k = 0; k < 2 * mb; ++k) field[k] = sd[basis.groupOf(k)] * n01(rng);
+    const double white = std::sqrt(cal.edges[e].inflation);
+    const Eigen::Isometry3d T_ji = s.T_cw(j) * s.T_wc(i);
+    const Eigen::Matrix3d R = T_ji.linear();
+    const Eigen::Vector3d t = T_ji.translation();
+    for (int p = 0; p < HW; ++p) {
+      const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
+      const double lam[2] = {o.weight_scale * s.weightPlane(e, 0)[p],
+                             o.weight_scale * s.weightPlane(e, 1)[p]};
+      if (!(d > 0) || !(lam[0] > 0 || lam[1] > 0)) continue;
+      const double x = p % s.W, y = p / s.W;
+      const Eigen::Vector3d Y = transferPoint(R, t, K, x, y, d);
+      if (!keepPixelFactor(o, d, Y.z())) continue;
+      const double pred[2] = {K.fx * Y.x() / Y.z() + K.cx, K.fy * Y.y() / Y.z() + K.cy};
+      basis.eval(p % s.W, p / s.W, index.data(), value.data());
+      for (int c = 0; c < 2; ++c) {
+        if (!(lam[c] > 0)) continue;
+        double n = white / std::sqrt(lam[c]) * n01(rng);
+        for (int u = 0; u < na; ++u) n += value[u] * field[c * mb + index[u]];
+        b.target[(static_cast<std::size_t>(e) * 2 + c) * HW + p] = static_cast<float>(pred[c] + n);
+      }
+    }
+  }
+  if (!solveDba(b, o, solver).converged()) return {};
+  // The replicate's error as the evaluation sees the snapshot's: the "truth" (the snapshot's
+  // state) relative to the replicate's estimate, in the replicate's tangent, against the
+  // covariance the method reports on the replicate.
+  SelfCalibrationOptions nc = opts;
+  nc.method = SelfCalibrationMethod::Nuisance;
+  SelfCalibration rc;
+  GaugeParameterization gb;
+  try {
+    rc = selfCalibrate(b, o, nc);
+    gb = makeGauge(o.gauge, b, keyframes);
+  } catch (const NumericalError&) {
+    return {};  // counted as a failed replicate
+  }
+  if (!rc.reduced_covariance || rc.reduced_covariance->rows() != gb.dim()) return {};
+  Eigen::VectorXd delta(gb.dim());
+  for (std::size_t a = 0; a < keyframes.size(); ++a) {
+    const int dim = gb.dimOf(static_cast<int>(a));
+    if (dim == 0) continue;
+    const Vector6d xi = logSE3(b.T_wc(keyframes[a]).inverse() * s.T_wc(keyframes[a]));
+    delta.segment(gb.offset[a], dim) = gb.basis[a].colPivHouseholderQr().solve(xi);
+  }
+  // The joint NEES and each keyframe's marginal NEES.
+  const Eigen::MatrixXd& Vb = *rc.reduced_covariance;
+  const Eigen::LLT<Eigen::MatrixXd> llt(Vb);
+  if (llt.info() != Eigen::Success) return {};
+  Eigen::VectorXd out(keyframes.size() + 1);
+  out[0] = delta.dot(llt.solve(delta));
+  for (std::size_t a = 0; a < keyframes.size(); ++a) {
+    const int dim = gb.dimOf(static_cast<int>(a));
+    out[a + 1] = 0;
+    if (dim == 0) continue;
+    const Eigen::VectorXd da = delta.segment(gb.offset[a], dim);
+    out[a + 1] = da.dot(Vb.block(gb.offset[a], gb.offset[a], dim, dim).llt().solve(da));
+  }
+  return out;
+}
+
+}  // namespace
+
+SelfCalibration runSelfCalibration(const Snapshot& s, const DbaOptions& o,
+                                   const SelfCalibrationOptions& c,
+                                   const DbaSolverOptions& solver) {
+  if (c.method != SelfCalibrationMethod::Bootstrap) return selfCalibrate(s, o, c);
+  c.validate();
+  solver.validate();
+  SelfCalibrationOptions nuisance = c;
+  nuisance.method = SelfCalibrationMethod::Nuisance;
+  SelfCalibration cal = selfCalibrate(s, o, nuisance);
+  cal.method = SelfCalibrationMethod::Bootstrap;
+  const std::vector<int> keyframes = s.graphKeyframes();
+  const GaugeParameterization gauge = makeGauge(o.gauge, s, keyframes);
+  const int K = gauge.dim();
+  if (K == 0 || !cal.reduced_covariance) return cal;
+  const Eigen::MatrixXd& V = *cal.reduced_covariance;
+  const Eigen::LLT<Eigen::MatrixXd> llt(V);
+  if (llt.info() != Eigen::Success || V.rows() != K)
+    throw NumericalError(s.source +
+                             ": the nuisance covariance is not positive definite "
+                             "(bootstrap self-calibration)",
+                         keyframes);
+  const NuisanceBasis basis{c.nuisance_nodes, s.H, s.W};
+  const int R = c.bootstrap_replicates;
+  std::vector<Eigen::VectorXd> delta(R);
+  parallelFor(static_cast<std::size_t>(R), [&](std::size_t r) {
+    // Each replicate its own stream (splitmix-style spread of the seed).
+    const unsigned long long seed = c.bootstrap_seed * 0x9E3779B97F4A7C15ull + r + 1;
+    delta[r] = replicate(s, o, solver, cal, basis, keyframes, c, seed);
+  });
+  // Per keyframe (slot a with m_a free coordinates): k_a = Σ_b NEES_b,a / (R m_a), the scale of
+  // its marginal; the joint k over all K coordinates for the summary.
+  const int n = static_cast<int>(keyframes.size());
+  Eigen::VectorXd sum_a = Eigen::VectorXd::Zero(n);
+  double sum = 0;
+  int ok = 0;
+  for (const Eigen::VectorXd& d : delta) {
+    if (d.size() != n + 1 || !d.allFinite()) continue;
+    ++ok;
+    sum += d[0];
+    sum_a += d.tail(n);
+  }
+  cal.bootstrap_replicates = ok;
+  cal.bootstrap_failed = R - ok;
+  if (2 * ok < R)
+    throw NumericalError(s.source + ": the bootstrap self-calibration's DBA solve converged for " +
+                             std::to_string(ok) + " of " + std::to_string(R) + " replicates",
+                         keyframes);
+  cal.bootstrap_scale = sum / (static_cast<double>(ok) * K);
+  // V' = D^½ V D^½, D = k_a on slot a's coordinates: each marginal scaled by its own k_a, the
+  // correlations kept.
+  Eigen::VectorXd root(K);
+  cal.bootstrap_keyframe_scales.assign(n, 1.0);
+  for (int a = 0; a < n; ++a) {
+    const int m = gauge.dimOf(a);
+    if (m == 0) continue;
+    cal.bootstrap_keyframe_scales[a] = sum_a[a] / (static_cast<double>(ok) * m);
+    root.segment(gauge.offset[a], m).setConstant(std::sqrt(cal.bootstrap_keyframe_scales[a]));
+  }
+  cal.reduced_covariance =
+      std::make_shared<const Eigen::MatrixXd>(root.asDiagonal() * V * root.asDiagonal());
+  return cal;
+}
+
+}  // namespace dbacov

@@ -1,0 +1,117 @@
+// The bootstrap self-calibration (dbacov/sim/bootstrap.h): its scale is 1 where the DBA solve is
+// linear, grows where it is not, is reproducible, and its covariance is the nuisance one scaled.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dbacov/core/threads.h"
+#include "dbacov/sim/bootstrap.h"
+#include "dbacov/sim/scenario.h"
+
+namespace dbacov::sim {
+namespace {
+
+/// test_self_calibration_mc.cpp's small regime (16×20 grid, 6 keyframes, whole trajectory),
+/// white noise as claimed at the given weight scale.
+ScenarioConfig smallScene(double weight_scale) {
+  ScenarioConfig c;
+  c.camera.H = 16;
+  c.camera.W = 20;
+  c.mode = SimulationMode::WholeTrajectory;
+  c.trajectory.num_keyframes = 6;
+  c.weight_scale = weight_scale;
+  c.seed = 21;
+  return c;
+}
+
+SelfCalibrationOptions bootstrap(int replicates, unsigned long long seed = 1) {
+  SelfCalibrationOptions c;
+  c.method = SelfCalibrationMethod::Bootstrap;
+  c.bootstrap_replicates = replicates;
+  c.bootstrap_seed = seed;
+  return c;
+}
+
+TEST(BootstrapSelfCalibration, ScaleIsOneWhereTheSolveIsLinearAndTheCovarianceIsNuisanceScaled) {
+  const Scenario sc(smallScene(3000));  // target sigmas 0.02-0.04 px
+  const DbaOptions o = sc.config().engineOptions();
+  const SimulatedSnapshot sim = sc.simulate(0);
+  const int R = 24;
+  const SelfCalibration boot = runSelfCalibration(sim.snapshot, o, bootstrap(R));
+  SelfCalibrationOptions nc;
+  nc.method = SelfCalibrationMethod::Nuisance;
+  const SelfCalibration nuis = runSelfCalibration(sim.snapshot, o, nc);
+  ASSERT_TRUE(boot.reduced_covariance && nuis.reduced_covariance);
+  EXPECT_EQ(boot.method, SelfCalibrationMethod::Bootstrap);
+  EXPECT_EQ(boot.bootstrap_replicates, R);
+  EXPECT_EQ(boot.bootstrap_failed, 0);
+  // Linear: k is a mean of R·K χ²(1)-like terms, sd √(2 / (R K)), each keyframe's k_a of R·6,
+  // sd √(2 / (6 R)); 5 sd.
+  const int K = static_cast<int>(nuis.reduced_covariance->rows());
+  RecordProperty("bootstrap_scale", std::to_string(boot.bootstrap_scale));
+  EXPECT_NEAR(boot.bootstrap_scale, 1.0, 5 * std::sqrt(2.0 / (R * K)))
+      << R << " replicates, " << K << " free DoF";
+  // The gauge holds the first two keyframes: 4 free ones of 6 DoF, in slot order.
+  ASSERT_EQ(K, 24);
+  ASSERT_EQ(boot.bootstrap_keyframe_scales.size(), 6u);
+  Eigen::VectorXd root(K);
+  for (int a = 0; a < 6; ++a) {
+    const double k = boot.bootstrap_keyframe_scales[a];
+    if (a < 2) {
+      EXPECT_EQ(k, 1.0) << "fixed keyframe " << a;
+      continue;
+    }
+    EXPECT_NEAR(k, 1.0, 5 * std::sqrt(2.0 / (6 * R))) << "keyframe " << a;
+    root.segment<6>(6 * (a - 2)).setConstant(std::sqrt(k));
+  }
+  // The covariance is the nuisance one with each keyframe's marginal scaled by its k_a.
+  const Eigen::MatrixXd expected = root.asDiagonal() * *nuis.reduced_covariance * root.asDiagonal();
+  EXPECT_LT((*boot.reduced_covariance - expected).cwiseAbs().maxCoeff(),
+            1e-12 * expected.cwiseAbs().maxCoeff());
+  // The edges' white scales are the nuisance method's.
+  for (std::size_t e = 0; e < boot.edges.size(); ++e)
+    EXPECT_EQ(boot.edges[e].inflation, nuis.edges[e].inflation) << "edge " << e;
+}
+
+TEST(BootstrapSelfCalibration, ScaleGrowsWhereTheSolveIsNonlinear) {
+  // The same scene at weight scale 3 (target sigmas ~ 0.6-1 px): the depths' nonlinearity widens
+  // DBA's estimate beyond its linearization, and the re-solved replicates show it.
+  const Scenario sc(smallScene(3));
+  const DbaOptions o = sc.config().engineOptions();
+  const SimulatedSnapshot sim = sc.simulate(0);
+  const int R = 24;
+  const SelfCalibration boot = runSelfCalibration(sim.snapshot, o, bootstrap(R));
+  const double K = static_cast<double>(boot.reduced_covariance->rows());
+  RecordProperty("bootstrap_scale", std::to_string(boot.bootstrap_scale));
+  EXPECT_GT(boot.bootstrap_scale, 1.0 + 5 * std::sqrt(2.0 / (R * K)))
+      << R << " replicates, " << K << " free DoF";
+}
+
+TEST(BootstrapSelfCalibration, ReproducibleWhateverTheThreadsAndSeeded) {
+  const Scenario sc(smallScene(3000));
+  const DbaOptions o = sc.config().engineOptions();
+  const SimulatedSnapshot sim = sc.simulate(0, 1);
+  double one = 0, two = 0;
+  {
+    const ThreadLimit limit(1);
+    one = runSelfCalibration(sim.snapshot, o, bootstrap(8)).bootstrap_scale;
+  }
+  {
+    const ThreadLimit limit(2);
+    two = runSelfCalibration(sim.snapshot, o, bootstrap(8)).bootstrap_scale;
+  }
+  EXPECT_EQ(one, two);
+  EXPECT_NE(runSelfCalibration(sim.snapshot, o, bootstrap(8, 2)).bootstrap_scale, one);
+}
+
+TEST(BootstrapSelfCalibration, RefusedWithoutTheSolverAndBadReplicates) {
+  const Scenario sc(smallScene(3000));
+  const DbaOptions o = sc.config().engineOptions();
+  const SimulatedSnapshot sim = sc.simulate(0);
+  EXPECT_THROW(selfCalibrate(sim.snapshot, o, bootstrap(8)), std::invalid_argument);
+  EXPECT_THROW(runSelfCalibration(sim.snapshot, o, bootstrap(3)), std::invalid_argument);
+  EXPECT_EQ(parseSelfCalibrationMethod("bootstrap"), SelfCalibrationMethod::Bootstrap);
+}
+
+}  // namespace
+}  // namespace dbacov::sim
