@@ -69,9 +69,11 @@ def Covariance(snapshot, preset="droid", **options):
     near, far, min_depth_ratio, sensor_depth_weight, solver ("sparse" | "dense"), ordering,
     threads; depth_sigma=True keeps what inverse_depth_sigma needs. Self-calibration as
     --self-calibrate: self_calibrate=True, self_calibrate_method ("nuisance" (default) |
-    "score" | "vce" | "autocorr" | "sandwich"; implies self_calibrate), self_calibrate_iterations
-    (1..20), self_calibrate_nodes (nuisance's field: 0 = affine, 2..8 = affine + G x G spline,
-    default 4);
+    "bootstrap" | "score" | "vce" | "autocorr" | "sandwich"; implies self_calibrate),
+    self_calibrate_iterations (1..20), self_calibrate_nodes (the field of nuisance and bootstrap:
+    0 = affine, 2..8 = affine + G x G spline, default 4); bootstrap runs 32 replicates (the CLI's
+    --self-calibrate-replicates has no keyword yet) and adds bootstrap_scale,
+    bootstrap_replicates and bootstrap_failed to the dict;
     converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one).
     The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,
     edges: one array per --edge-csv column; nuisance adds field_sigma, field_fine_sigma (px)
