@@ -71,9 +71,10 @@ def Covariance(snapshot, preset="droid", **options):
     --self-calibrate: self_calibrate=True, self_calibrate_method ("nuisance" (default) |
     "bootstrap" | "score" | "vce" | "autocorr" | "sandwich"; implies self_calibrate),
     self_calibrate_iterations (1..20), self_calibrate_nodes (the field of nuisance and bootstrap:
-    0 = affine, 2..8 = affine + G x G spline, default 4); bootstrap runs 32 replicates (the CLI's
-    --self-calibrate-replicates has no keyword yet) and adds bootstrap_scale,
-    bootstrap_replicates and bootstrap_failed to the dict;
+    0 = affine, 2..8 = affine + G x G spline, default 4), self_calibrate_replicates (bootstrap's
+    re-solved replicates, 4..100000, default 32) and self_calibrate_resampling ("parametric"
+    (default) | "wild": bootstrap's white noise); each implies self_calibrate. Bootstrap adds
+    bootstrap_scale, bootstrap_replicates and bootstrap_failed to the dict;
     converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one).
     The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,
     edges: one array per --edge-csv column; nuisance adds field_sigma, field_fine_sigma (px)

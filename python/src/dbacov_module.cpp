@@ -133,12 +133,13 @@ std::string snapshotName(const Snapshot& s) {
 /// The self-calibration keywords into the core options by the apps' own builder
 /// (SelfCalibrationAppOptions::options(): the method's name through the enum table, the same
 /// message for an unknown one). A method or nodes imply self_calibrate, as their flags do.
-SelfCalibrationAppOptions selfCalibrationOptions(bool self_calibrate,
-                                                 std::optional<std::string> method,
-                                                 std::optional<int> iterations,
-                                                 std::optional<int> nodes, bool converge) {
+SelfCalibrationAppOptions selfCalibrationOptions(
+    bool self_calibrate, std::optional<std::string> method, std::optional<int> iterations,
+    std::optional<int> nodes, std::optional<int> replicates, std::optional<std::string> resampling,
+    bool converge) {
   SelfCalibrationAppOptions o;
-  o.enabled = self_calibrate || method.has_value() || nodes.has_value();
+  o.enabled = self_calibrate || method.has_value() || nodes.has_value() || replicates.has_value() ||
+              resampling.has_value();
   if (method) o.method = *method;
   if (iterations) {
     if (*iterations < 1 || *iterations > 20)  // dba-covariance's CLI::Range(1, 20)
@@ -157,8 +158,15 @@ SelfCalibrationAppOptions selfCalibrationOptions(bool self_calibrate,
     }
     o.nodes = *nodes;
   }
+  if (replicates) {
+    if (*replicates < 4 || *replicates > 100000)  // dba-covariance's CLI::Range(4, 100000)
+      throw std::invalid_argument("self_calibrate_replicates: " + std::to_string(*replicates) +
+                                  " is not in 4..100000");
+    o.replicates = *replicates;
+  }
+  if (resampling) o.resampling = *resampling;
   o.converge = converge;
-  o.options();  // throws std::invalid_argument for an unknown method
+  o.options();  // throws std::invalid_argument for an unknown method or resampling
   return o;
 }
 
@@ -397,15 +405,18 @@ PYBIND11_MODULE(_dbacov, m) {
                        const std::string& ordering, std::size_t threads, bool depth_sigma,
                        bool self_calibrate, std::optional<std::string> self_calibrate_method,
                        std::optional<int> self_calibrate_iterations,
-                       std::optional<int> self_calibrate_nodes, bool converge) {
+                       std::optional<int> self_calibrate_nodes,
+                       std::optional<int> self_calibrate_replicates,
+                       std::optional<std::string> self_calibrate_resampling, bool converge) {
              auto c = std::make_unique<PyCovariance>();
              c->options =
                  engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans,
                                near, far, min_depth_ratio, sensor_depth_weight);
              const CovarianceOptions so = solverOptions(solver, ordering, depth_sigma);
-             const SelfCalibrationAppOptions sc =
-                 selfCalibrationOptions(self_calibrate, self_calibrate_method,
-                                        self_calibrate_iterations, self_calibrate_nodes, converge);
+             const SelfCalibrationAppOptions sc = selfCalibrationOptions(
+                 self_calibrate, self_calibrate_method, self_calibrate_iterations,
+                 self_calibrate_nodes, self_calibrate_replicates, self_calibrate_resampling,
+                 converge);
              c->depth_sigma = depth_sigma;
              py::gil_scoped_release release;
              const ThreadLimit limit(threads);
@@ -436,7 +447,9 @@ PYBIND11_MODULE(_dbacov, m) {
            py::arg("depth_sigma") = true, py::arg("self_calibrate") = false,
            py::arg("self_calibrate_method") = py::none(),
            py::arg("self_calibrate_iterations") = py::none(),
-           py::arg("self_calibrate_nodes") = py::none(), py::arg("converge") = false)
+           py::arg("self_calibrate_nodes") = py::none(),
+           py::arg("self_calibrate_replicates") = py::none(),
+           py::arg("self_calibrate_resampling") = py::none(), py::arg("converge") = false)
       .def_property_readonly("self_calibration",
                              [](const PyCovariance& c) -> py::object {
                                if (!c.calibration) return py::none();

@@ -108,6 +108,14 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
         dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_nodes=9)
     with pytest.raises(ValueError, match="nodes apply to the nuisance and bootstrap methods only, not score"):
         dbacov.Covariance(shared_path, self_calibrate_method="score", self_calibrate_nodes=3)
+    with pytest.raises(ValueError, match="self_calibrate_replicates: 3 is not in 4..100000"):
+        dbacov.Covariance(shared_path, self_calibrate_method="bootstrap",
+                          self_calibrate_replicates=3)
+    with pytest.raises(ValueError, match="resampling applies to the bootstrap method only, not nuisance"):
+        dbacov.Covariance(shared_path, self_calibrate_resampling="wild")
+    with pytest.raises(ValueError, match="unknown bootstrap resampling 'block', expected parametric or wild"):
+        dbacov.Covariance(shared_path, self_calibrate_method="bootstrap",
+                          self_calibrate_resampling="block")
     assert not os.path.exists(tmp_path / "x.csv")
 
 
@@ -122,6 +130,14 @@ def test_bootstrap_method_reports_its_scales(sim_dir):
     assert cal["bootstrap_replicates"] >= 16
     assert 0.5 < cal["bootstrap_scale"] < 3.0
     assert "field_sigma" in cal
+    # The replicates and the resampling by keyword, as --self-calibrate-replicates and
+    # --self-calibrate-resampling; either implies the self-calibration.
+    wild = dbacov.Covariance(path, weight_scale=4, self_calibrate_method="bootstrap",
+                             self_calibrate_replicates=8,
+                             self_calibrate_resampling="wild").self_calibration
+    assert wild["bootstrap_replicates"] + wild["bootstrap_failed"] == 8
+    assert wild["bootstrap_replicates"] >= 4
+    assert wild["bootstrap_scale"] != cal["bootstrap_scale"]
 
 
 # --- pose rawlogs -----------------------------------------------------------------------------

@@ -249,7 +249,13 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
             "self-calibration replicates apply to the bootstrap method only, not nuisance"},
            {{"-i", in, "--csv", out, "--self-calibrate-method", "bootstrap",
              "--self-calibrate-replicates", "3"},
-            "--self-calibrate-replicates: Value 3 not in range 4 to 100000"}}) {
+            "--self-calibrate-replicates: Value 3 not in range 4 to 100000"},
+           {{"-i", in, "--csv", out, "--self-calibrate-resampling", "wild"},
+            "self-calibration resampling applies to the bootstrap method only, not nuisance"},
+           {{"-i", in, "--csv", out, "--self-calibrate-method", "bootstrap",
+             "--self-calibrate-resampling", "block"},
+            "--self-calibrate-resampling: unknown bootstrap resampling 'block', expected "
+            "parametric or wild"}}) {
     const AppResult r = run(args);
     EXPECT_EQ(r.code, 2) << r.err;
     EXPECT_TRUE(contains(r.err, "dba-covariance: " + message + "\n")) << r.err;

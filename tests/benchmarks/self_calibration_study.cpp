@@ -170,6 +170,11 @@ int main(int argc, char** argv) {
               c.score_metric = ScoreMetric::Covariance;
               name.erase(name.find("-cov"), 4);
             }
+            // "-wild": the bootstrap's wild resampling of the residuals.
+            if (name.find("-wild") != std::string::npos) {
+              c.bootstrap_resampling = BootstrapResampling::Wild;
+              name.erase(name.find("-wild"), 5);
+            }
             // "-g<G>": nuisance with the affine field + a G × G tent spline (G = 0: affine only).
             if (name.find("-g") != std::string::npos) {
               c.nuisance_nodes = std::atoi(name.substr(name.find("-g") + 2).c_str());

@@ -30,6 +30,12 @@ SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
                                   "bootstrap method only, not " + toString(o.method));
     o.bootstrap_replicates = replicates;
   }
+  if (!resampling.empty()) {
+    if (o.method != SelfCalibrationMethod::Bootstrap)
+      throw std::invalid_argument(std::string("self-calibration resampling applies to the ") +
+                                  "bootstrap method only, not " + toString(o.method));
+    o.bootstrap_resampling = parseEnum<BootstrapResampling>(resampling);
+  }
   o.validate();
   return o;
 }
@@ -78,6 +84,13 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
                      std::to_string(SelfCalibrationOptions{}.bootstrap_replicates) +
                      "); implies --self-calibrate")
       ->check(CLI::Range(4, 100000))
+      ->each([&o](const std::string&) { o.enabled = true; });
+  cli.add_option("--self-calibrate-resampling", o.resampling,
+                 "bootstrap: the replicates' white noise, " + enumNameList<BootstrapResampling>() +
+                     " (default " + toString(SelfCalibrationOptions{}.bootstrap_resampling) +
+                     "; wild = each row's own residual with a random sign); implies "
+                     "--self-calibrate")
+      ->check(enumValidator<BootstrapResampling>())
       ->each([&o](const std::string&) { o.enabled = true; });
   if (!outputs) return;
   cli.add_option("--edge-csv", o.edge_csv,
@@ -206,6 +219,8 @@ std::string SelfCalibrationRun::summaryLine() const {
     os << ", bootstrap scale median " << number(median(boot_scales_)) << " (" << number(*lo)
        << " to " << number(*hi) << ", " << options_.bootstrap_replicates
        << " replicates per snapshot";
+    if (options_.bootstrap_resampling != BootstrapResampling::Parametric)
+      os << ", " << toString(options_.bootstrap_resampling) << " resampling";
     if (boot_failed_) os << ", " << boot_failed_ << " unconverged left out";
     os << ")";
   }

@@ -38,30 +38,55 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
   const double sd[2] = {cal.nuisance_sigma, cal.nuisance_fine_sigma};
   std::vector<int> index(na);
   std::vector<double> value(na), field(2 * mb);
+  const bool wild = opts.bootstrap_resampling == BootstrapResampling::Wild;
+  std::bernoulli_distribution sign(0.5);
+  struct Row {
+    std::size_t at;  ///< index into target
+    int pixel, channel;
+    double pred, lam;
+  };
+  std::vector<Row> rows;
   for (int e = 0; e < s.numEdges(); ++e) {
     const int i = static_cast<int>(s.ii[e]), j = static_cast<int>(s.jj[e]);
     if (i == j) continue;
     for (int k = 0; k < 2 * mb; ++k) field[k] = sd[basis.groupOf(k)] * n01(rng);
-    const double white = std::sqrt(cal.edges[e].inflation);
     const Eigen::Isometry3d T_ji = s.T_cw(j) * s.T_wc(i);
     const Eigen::Matrix3d R = T_ji.linear();
     const Eigen::Vector3d t = T_ji.translation();
+    // The edge's used rows: target index, predicted flow and information.
+    rows.clear();
     for (int p = 0; p < HW; ++p) {
       const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
       const double lam[2] = {o.weight_scale * s.weightPlane(e, 0)[p],
                              o.weight_scale * s.weightPlane(e, 1)[p]};
       if (!(d > 0) || !(lam[0] > 0 || lam[1] > 0)) continue;
-      const double x = p % s.W, y = p / s.W;
-      const Eigen::Vector3d Y = transferPoint(R, t, K, x, y, d);
+      const Eigen::Vector3d Y = transferPoint(R, t, K, p % s.W, p / s.W, d);
       if (!keepPixelFactor(o, d, Y.z())) continue;
       const double pred[2] = {K.fx * Y.x() / Y.z() + K.cx, K.fy * Y.y() / Y.z() + K.cy};
-      basis.eval(p % s.W, p / s.W, index.data(), value.data());
-      for (int c = 0; c < 2; ++c) {
-        if (!(lam[c] > 0)) continue;
-        double n = white / std::sqrt(lam[c]) * n01(rng);
-        for (int u = 0; u < na; ++u) n += value[u] * field[c * mb + index[u]];
-        b.target[(static_cast<std::size_t>(e) * 2 + c) * HW + p] = static_cast<float>(pred[c] + n);
+      for (int c = 0; c < 2; ++c)
+        if (lam[c] > 0)
+          rows.push_back({(static_cast<std::size_t>(e) * 2 + c) * HW + p, p, c, pred[c], lam[c]});
+    }
+    // Wild: the row's residual r with a random sign, scaled by sqrt(s_e / mean λr²) so that the
+    // edge's white energy is the fitted s_e per row, as in the parametric draw.
+    double wild_scale = 0;
+    if (wild) {
+      double q = 0;
+      for (const Row& w : rows) {
+        const double r = s.target[w.at] - w.pred;
+        q += w.lam * r * r;
       }
+      if (q > 0) wild_scale = std::sqrt(cal.edges[e].inflation * rows.size() / q);
+    }
+    const double white = std::sqrt(cal.edges[e].inflation);
+    int last = -1;
+    for (const Row& w : rows) {
+      if (w.pixel != last) basis.eval(w.pixel % s.W, w.pixel / s.W, index.data(), value.data());
+      last = w.pixel;
+      double n = wild ? wild_scale * (s.target[w.at] - w.pred) * (sign(rng) ? 1.0 : -1.0)
+                      : white / std::sqrt(w.lam) * n01(rng);
+      for (int u = 0; u < na; ++u) n += value[u] * field[w.channel * mb + index[u]];
+      b.target[w.at] = static_cast<float>(w.pred + n);
     }
   }
   if (!solveDba(b, o, solver).converged()) return {};

@@ -63,7 +63,8 @@
 //             it reaches; a field finer than the basis is seen only by its white scale s_e.
 //   bootstrap nuisance, then a parametric bootstrap that re-solves the DBA: R replicates of the
 //             snapshot whose targets are the state's predicted flow plus noise drawn from the
-//             fitted model (white of variance s_e / λ, fields a_e ~ N(0, D)), each solved to
+//             fitted model (white of variance s_e / λ, or the rows' own residuals with random
+//             signs at that energy: bootstrap_resampling; fields a_e ~ N(0, D)), each solved to
 //             the optimum from the state (the project's DBA solver) and calibrated like the
 //             snapshot. The state against each replicate's estimate and covariance is the
 //             evaluation's NEES with the state as the truth; per keyframe its mean over 6 is k_a
@@ -109,6 +110,17 @@ inline SelfCalibrationMethod parseSelfCalibrationMethod(const std::string& name)
   return parseEnum<SelfCalibrationMethod>(name);
 }
 
+/// How the bootstrap draws each replicate's white noise. Parametric: Gaussian of variance s_e / λ
+/// at every row. Wild: the row's own standardized residual with a random sign, rescaled per edge
+/// to the same energy s_e (the residuals' heavy tails, and where they are, carried over).
+enum class BootstrapResampling { Parametric, Wild };
+template <>
+struct EnumNames<BootstrapResampling> {
+  static constexpr const char* what = "bootstrap resampling";
+  static constexpr std::array<std::pair<BootstrapResampling, const char*>, 2> entries{
+      {{BootstrapResampling::Parametric, "parametric"}, {BootstrapResampling::Wild, "wild"}}};
+};
+
 /// The metric of the score statistic: I_e⁺ (every direction of the edge's information equally:
 /// many degrees of freedom) or Σ (the pose covariance: the directions the covariance weighs).
 enum class ScoreMetric { Information, Covariance };
@@ -131,6 +143,7 @@ struct SelfCalibrationOptions {
   /// same covariance, whatever the number of threads).
   int bootstrap_replicates = 32;
   unsigned long long bootstrap_seed = 1;
+  BootstrapResampling bootstrap_resampling = BootstrapResampling::Parametric;
   double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
   double max_inflation = 1e9;
   /// Throws std::invalid_argument for values out of their domain.

@@ -6,7 +6,11 @@
 // linearization says (the default scene at weight scale 4: ANEES 9.2 for white noise that the
 // confidences describe exactly). The bootstrap measures that, with no ground truth: R replicates
 // of the snapshot, each with targets = the state's predicted flow π(state) + noise drawn from the
-// fitted model, are solved to the optimum from the state by solveDba and calibrated (nuisance)
+// fitted model (white of variance s_e / λ, or with bootstrap_resampling = Wild each row's own
+// residual r with a random sign, scaled per edge by sqrt(s_e n_e / Σ λ r²) to the same white
+// energy: a few rows that err much stay those rows, so what their depths do to the solve is
+// re-enacted; fields a_e ~ N(0, D) either way), are solved to the optimum from the state by
+// solveDba and calibrated (nuisance)
 // like the snapshot. The state's offset from each replicate's estimate, e_b = Log(T_b⁻¹ T_state)
 // per keyframe (the evaluation's error with the state as the truth), against the replicate's own
 // covariance V_b gives per keyframe a (m_a free coordinates)
