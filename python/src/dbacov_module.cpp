@@ -132,7 +132,8 @@ std::string snapshotName(const Snapshot& s) {
 
 /// The self-calibration keywords into the core options by the apps' own builder
 /// (SelfCalibrationAppOptions::options(): the method's name through the enum table, the same
-/// message for an unknown one). A method or nodes imply self_calibrate, as their flags do.
+/// message for an unknown one). A method, nodes, replicates or resampling imply self_calibrate, as
+/// their flags do.
 SelfCalibrationAppOptions selfCalibrationOptions(
     bool self_calibrate, std::optional<std::string> method, std::optional<int> iterations,
     std::optional<int> nodes, std::optional<int> replicates, std::optional<std::string> resampling,

@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdio>
 
 #include "dbacov/core/threads.h"
 #include "dbacov/sim/bootstrap.h"
@@ -30,6 +29,12 @@ SelfCalibrationOptions bootstrap(int replicates, unsigned long long seed = 1) {
   c.method = SelfCalibrationMethod::Bootstrap;
   c.bootstrap_replicates = replicates;
   c.bootstrap_seed = seed;
+  return c;
+}
+
+SelfCalibrationOptions wildBootstrap(int replicates) {
+  SelfCalibrationOptions c = bootstrap(replicates);
+  c.bootstrap_resampling = BootstrapResampling::Wild;
   return c;
 }
 
@@ -81,9 +86,7 @@ TEST(BootstrapSelfCalibration, WildResamplingScaleIsOneWhereTheSolveIsLinear) {
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0);
   const int R = 24;
-  SelfCalibrationOptions c = bootstrap(R);
-  c.bootstrap_resampling = BootstrapResampling::Wild;
-  const SelfCalibration wild = runSelfCalibration(sim.snapshot, o, c);
+  const SelfCalibration wild = runSelfCalibration(sim.snapshot, o, wildBootstrap(R));
   const SelfCalibration para = runSelfCalibration(sim.snapshot, o, bootstrap(R));
   const int K = static_cast<int>(wild.reduced_covariance->rows());
   RecordProperty("wild_bootstrap_scale", std::to_string(wild.bootstrap_scale));
@@ -106,15 +109,11 @@ TEST(BootstrapSelfCalibration, WildResamplingSeesWhatOutlierPixelsDoToTheSolve) 
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0);
   const int R = 24;
-  SelfCalibrationOptions c = bootstrap(R);
-  c.bootstrap_resampling = BootstrapResampling::Wild;
-  const SelfCalibration wild = runSelfCalibration(sim.snapshot, o, c);
+  const SelfCalibration wild = runSelfCalibration(sim.snapshot, o, wildBootstrap(R));
   const SelfCalibration para = runSelfCalibration(sim.snapshot, o, bootstrap(R));
   const double K = static_cast<double>(wild.reduced_covariance->rows());
   RecordProperty("wild_bootstrap_scale", std::to_string(wild.bootstrap_scale));
   RecordProperty("parametric_bootstrap_scale", std::to_string(para.bootstrap_scale));
-  std::printf("outliers: wild k %.4f, parametric k %.4f\n", wild.bootstrap_scale,
-              para.bootstrap_scale);
   EXPECT_GT(wild.bootstrap_scale, para.bootstrap_scale * (1 + 5 * std::sqrt(2.0 / (R * K))));
 }
 
@@ -136,28 +135,14 @@ TEST(BootstrapSelfCalibration, ReproducibleWhateverTheThreadsAndSeeded) {
   const Scenario sc(smallScene(3000));
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0, 1);
-  double one = 0, two = 0;
-  {
-    const ThreadLimit limit(1);
-    one = runSelfCalibration(sim.snapshot, o, bootstrap(8)).bootstrap_scale;
-  }
-  {
-    const ThreadLimit limit(2);
-    two = runSelfCalibration(sim.snapshot, o, bootstrap(8)).bootstrap_scale;
-  }
-  EXPECT_EQ(one, two);
-  SelfCalibrationOptions wild = bootstrap(8);
-  wild.bootstrap_resampling = BootstrapResampling::Wild;
-  double wild_one = 0, wild_two = 0;
-  {
-    const ThreadLimit limit(1);
-    wild_one = runSelfCalibration(sim.snapshot, o, wild).bootstrap_scale;
-  }
-  {
-    const ThreadLimit limit(2);
-    wild_two = runSelfCalibration(sim.snapshot, o, wild).bootstrap_scale;
-  }
-  EXPECT_EQ(wild_one, wild_two);
+  // The joint scale with `threads` worker threads.
+  const auto scaleAt = [&](std::size_t threads, const SelfCalibrationOptions& c) {
+    const ThreadLimit limit(threads);
+    return runSelfCalibration(sim.snapshot, o, c).bootstrap_scale;
+  };
+  const double one = scaleAt(1, bootstrap(8));
+  EXPECT_EQ(one, scaleAt(2, bootstrap(8)));
+  EXPECT_EQ(scaleAt(1, wildBootstrap(8)), scaleAt(2, wildBootstrap(8)));
   EXPECT_NE(runSelfCalibration(sim.snapshot, o, bootstrap(8, 2)).bootstrap_scale, one);
 }
 

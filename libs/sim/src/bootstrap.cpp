@@ -43,7 +43,7 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
   struct Row {
     std::size_t at;  ///< index into target
     int pixel, channel;
-    double pred, lam;
+    double pred, lam, residual;  ///< residual: the snapshot's target − pred
   };
   std::vector<Row> rows;
   for (int e = 0; e < s.numEdges(); ++e) {
@@ -64,18 +64,17 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
       if (!keepPixelFactor(o, d, Y.z())) continue;
       const double pred[2] = {K.fx * Y.x() / Y.z() + K.cx, K.fy * Y.y() / Y.z() + K.cy};
       for (int c = 0; c < 2; ++c)
-        if (lam[c] > 0)
-          rows.push_back({(static_cast<std::size_t>(e) * 2 + c) * HW + p, p, c, pred[c], lam[c]});
+        if (lam[c] > 0) {
+          const std::size_t at = (static_cast<std::size_t>(e) * 2 + c) * HW + p;
+          rows.push_back({at, p, c, pred[c], lam[c], s.target[at] - pred[c]});
+        }
     }
     // Wild: the row's residual r with a random sign, scaled by sqrt(s_e / mean λr²) so that the
     // edge's white energy is the fitted s_e per row, as in the parametric draw.
     double wild_scale = 0;
     if (wild) {
       double q = 0;
-      for (const Row& w : rows) {
-        const double r = s.target[w.at] - w.pred;
-        q += w.lam * r * r;
-      }
+      for (const Row& w : rows) q += w.lam * w.residual * w.residual;
       if (q > 0) wild_scale = std::sqrt(cal.edges[e].inflation * rows.size() / q);
     }
     const double white = std::sqrt(cal.edges[e].inflation);
@@ -83,7 +82,7 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
     for (const Row& w : rows) {
       if (w.pixel != last) basis.eval(w.pixel % s.W, w.pixel / s.W, index.data(), value.data());
       last = w.pixel;
-      double n = wild ? wild_scale * (s.target[w.at] - w.pred) * (sign(rng) ? 1.0 : -1.0)
+      double n = wild ? wild_scale * w.residual * (sign(rng) ? 1.0 : -1.0)
                       : white / std::sqrt(w.lam) * n01(rng);
       for (int u = 0; u < na; ++u) n += value[u] * field[w.channel * mb + index[u]];
       b.target[w.at] = static_cast<float>(w.pred + n);
