@@ -2,6 +2,7 @@
 // dense reference built from every factor row, and the statistical claims on solved snapshots.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <random>
@@ -414,6 +415,36 @@ TEST(SelfCalibration, MatchingWhiteNoiseIsLeftAlone) {
     if (e.rows > 500) {
       EXPECT_NEAR(e.inflation, 1.0, 0.15) << "edge " << e.edge;
     }
+}
+
+/// The nuisance calibration hands its own linearization to selfCalibratedCovariance, which then
+/// does not linearize again: the covariances are those of a fresh linearization, and with
+/// depth variances (which need the depth terms the handed one lacks) it linearizes anew.
+TEST(SelfCalibration, HandedLinearizationGivesTheSameCovariance) {
+  const sim::Scenario sc(smallScenario(13, 24, 32));
+  const sim::SimulatedSnapshot sim = sc.simulate(0, 0);
+  const DbaOptions o = sc.config().engineOptions();
+  SelfCalibrationOptions c;
+  c.method = SelfCalibrationMethod::Nuisance;
+  const SelfCalibration cal = selfCalibrate(sim.snapshot, o, c);
+  ASSERT_TRUE(cal.linearization) << "the nuisance method hands over no linearization";
+  SelfCalibration fresh = cal;
+  fresh.linearization.reset();
+  CovarianceOptions depths;
+  depths.depth_variances = true;
+  const DbaCovariance handed = selfCalibratedCovariance(sim.snapshot, o, {}, cal),
+                      anew = selfCalibratedCovariance(sim.snapshot, o, {}, fresh),
+                      with_depths = selfCalibratedCovariance(sim.snapshot, o, depths, cal);
+  ASSERT_EQ(handed.keyframes(), anew.keyframes());
+  for (int k : anew.keyframes()) {
+    const Matrix6d want = anew.marginal(k);
+    EXPECT_LE((handed.marginal(k) - want).norm(), 1e-12 * (1e-300 + want.norm())) << k;
+    EXPECT_LE((with_depths.marginal(k) - want).norm(), 1e-12 * (1e-300 + want.norm())) << k;
+  }
+  const int src = static_cast<int>(sim.snapshot.ii[0]);
+  const std::vector<float> sd = with_depths.inverseDepthSigma(src);
+  ASSERT_EQ(sd.size(), sim.snapshot.pixelsPerFrame());
+  EXPECT_TRUE(std::any_of(sd.begin(), sd.end(), [](float v) { return v > 0; }));
 }
 
 TEST(SelfCalibration, WrongWeightScaleIsCorrected) {

@@ -86,7 +86,9 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   snapshot.validate();  // the API boundary: InputError for an invalid snapshot (covariance.h)
   Impl& m = *impl_;
   const auto t0 = Clock::now();
-  m.ne = linearizeDba(snapshot, options, so.depth_variances);
+  m.ne = so.linearization && !so.depth_variances
+             ? *so.linearization
+             : linearizeDba(snapshot, options, so.depth_variances);
   const auto t1 = Clock::now();
   // Values that pass validation can still overflow double precision in the factor (e.g. a
   // principal point of 1e154): refuse before the solver turns them into NaN covariances.

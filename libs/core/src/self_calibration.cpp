@@ -355,15 +355,21 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         alpha.col(pix) = al;
         beta[pix] = be;
       }
-      lev += ((S12 * Um).cwiseProduct(Um)).colwise().sum().transpose();
       Matrix12d Auu = Matrix12d::Zero();
       Auu.selfadjointView<Eigen::Lower>().rankUpdate(Um);
       Auu = Auu.selfadjointView<Eigen::Lower>();
+      // The leverages' u_kᵀ Σ₁₂ u_k: per row only where the rows' own leverages are used (the
+      // autocorrelation's whitened residuals); their sum is tr(Σ₁₂ Σ u uᵀ).
+      double uSu = 0;
+      if (autocorr)
+        lev += ((S12 * Um).cwiseProduct(Um)).colwise().sum().transpose();
+      else
+        uSu = S12.cwiseProduct(Auu).sum();
       const Vector12d gu = Um * sr;
       a.rows = M;
       a.pixels = P;
       a.q = sr.squaredNorm();
-      a.lev = lev.sum();
+      a.lev = lev.sum() + uSu;
       // g = Σ sr_k v_k;  I = Σ v_k v_kᵀ = [Σ u uᵀ] − [Σ c u Bᵀ + transpose] + Σ (Σ c²) B Bᵀ.
       Eigen::VectorXd g = -(Bp * gamma);
       for (int i = 0; i < 12; ++i) g[idx[i]] += gu[i];
@@ -396,16 +402,24 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.tr_SI = tr;
       }
       a.gSg = g.dot(Sig * g);
-      // The depth's share: C_p = Σ_k √λ J_d v_k = α_p − β_p B_p (pixels with depth information).
+      // The depth's share: C_p = Σ_k √λ J_d v_k = α_p − β_p B_p (pixels with depth information);
+      // Σ_p α_pᵀ Σ₁₂ α_p / h_p as tr(Σ₁₂ Σ_p α_p α_pᵀ / h_p), one rank update.
+      Eigen::Matrix<double, 12, Eigen::Dynamic> alpha_h(12, P);
       for (int pix = 0; pix < P; ++pix) {
-        if (!(hk[pix] > o.depth_info_eps)) continue;
+        if (!(hk[pix] > o.depth_info_eps)) {
+          alpha_h.col(pix).setZero();
+          continue;
+        }
         const int px = rq[first_row[pix]].pixel;
         const Vector12d al = alpha.col(pix);
+        alpha_h.col(pix) = al / std::sqrt(hk[pix]);
         double aSB = 0;
         for (int i = 0; i < 12; ++i) aSB += al[i] * SB(idx[i], px);
-        a.tr_SD +=
-            (al.dot(S12 * al) - 2 * beta[pix] * aSB + beta[pix] * beta[pix] * bSb[px]) / hk[pix];
+        a.tr_SD += (beta[pix] * beta[pix] * bSb[px] - 2 * beta[pix] * aSB) / hk[pix];
       }
+      Matrix12d Aal = Matrix12d::Zero();
+      Aal.selfadjointView<Eigen::Lower>().rankUpdate(alpha_h);
+      a.tr_SD += S12.cwiseProduct(Matrix12d(Aal.selfadjointView<Eigen::Lower>())).sum();
       // The same statistic in the edge's own information metric: g_eᵀ I_e⁺ g_e, expectation
       // rank(I_e) − tr(I_e⁺ D_e) − tr(Σ I_e), with tr(I_e⁺ D_e) = tr(I_e⁺ X), X = Σ_p C_p C_pᵀ /
       // h_p.
@@ -687,8 +701,7 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       const Eigen::LLT<Eigen::MatrixXd> llt(Cv);
       if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
       const Eigen::VectorXd Ciy = llt.solve(f.y);
-      ll -=
-          0.5 * (2 * Eigen::MatrixXd(llt.matrixL()).diagonal().array().log().sum() + f.y.dot(Ciy));
+      ll -= 0.5 * (2 * llt.matrixLLT().diagonal().array().log().sum() + f.y.dot(Ciy));
       if (!score) continue;
       std::vector<Eigen::MatrixXd> CiB(G);
       for (int g = 0; g < G; ++g) {
@@ -848,7 +861,7 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
     const bool last = it + 1 == passes;
     const Snapshot inflated = it == 0 ? Snapshot() : inflateWeights(s, infl);
     const Snapshot& cur = it == 0 ? s : inflated;
-    const DenseModel model = buildModel(cur, o);
+    DenseModel model = buildModel(cur, o);
     const bool nuisance = c.method == SelfCalibrationMethod::Nuisance;
     std::vector<SourceTerms> sources;
     const std::vector<EdgeAccum> acc =
@@ -945,6 +958,7 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
     if (c.method == SelfCalibrationMethod::Nuisance) {
       nuisanceCovariance(model, acc, sources, basis.groups(), c.min_inflation, c.max_inflation,
                          &out);
+      out.linearization = std::make_shared<const DbaNormalEquations>(std::move(model.ne));
       out.nuisance_params = 2 * basis.perChannel();
     }
   }
@@ -960,6 +974,7 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
   if (cal.reduced_covariance) {
     CovarianceOptions so = solver;
     so.reduced_covariance = cal.reduced_covariance;
+    so.linearization = cal.linearization;
     DbaCovariance cov(s, o, so);
     cov.setSelfCalibrationSummary(std::move(summary));
     return cov;

@@ -15,6 +15,8 @@
 
 namespace dbacov {
 
+struct DbaNormalEquations;  // linearization.h (internal)
+
 /// How the 7-DoF gauge of monocular DBA (6 pose + scale) is fixed (conventions §4).
 struct GaugeOptions {
   enum class Type {
@@ -120,6 +122,10 @@ struct CovarianceOptions {
   /// When set, Σ in the gauge's reduced coordinates (K×K, K = free pose DoF) replaces S⁻¹: the
   /// sandwich of self_calibration.h. Linearization and gauge are still those of the snapshot.
   std::shared_ptr<const Eigen::MatrixXd> reduced_covariance;
+  /// When set, the linearization of this snapshot under these DbaOptions (without depth terms),
+  /// which the constructor then does not repeat: the self-calibration's own, handed over by
+  /// selfCalibratedCovariance. Ignored with depth_variances (those need the depth terms).
+  std::shared_ptr<const DbaNormalEquations> linearization;
 };
 
 template <>

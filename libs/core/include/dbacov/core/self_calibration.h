@@ -200,6 +200,9 @@ struct SelfCalibration {
   /// Sandwich and nuisance: the covariance in the gauge's reduced coordinates (for
   /// CovarianceOptions).
   std::shared_ptr<const Eigen::MatrixXd> reduced_covariance;
+  /// Nuisance: the linearization reduced_covariance was computed with (the snapshot's own, at its
+  /// weights), so that selfCalibratedCovariance of the same snapshot does not linearize again.
+  std::shared_ptr<const DbaNormalEquations> linearization;
   /// Per-edge inflations in edge order.
   std::vector<double> inflations() const;
 };
