@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <random>
@@ -14,6 +15,7 @@
 #include "dbacov/core/dba_factor.h"
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/linearization.h"
+#include "dbacov/core/nuisance_basis.h"
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/scenario.h"
@@ -366,6 +368,32 @@ void expectNuisanceMatchesDenseReference(int nodes) {
     const Matrix6d got = cov.marginal(kf[a]);
     const Eigen::MatrixXd want = expected.block<6, 6>(6 * a, 6 * a);
     EXPECT_LE((got - want).norm(), 1e-6 * (1e-12 + want.norm())) << "keyframe " << kf[a];
+  }
+}
+
+/// Inside a spline cell every active basis value is T_cell times the pixel's monomials: the
+/// identity the nuisance sums rely on to run on 4 monomials instead of 7 values, checked at every
+/// pixel of grids whose cells are uneven, against NuisanceBasis::eval.
+TEST(SelfCalibration, NuisanceCellTransformReproducesTheBasis) {
+  for (const auto& [nodes, H, W] : std::vector<std::array<int, 3>>{
+           {0, 5, 7}, {2, 6, 9}, {3, 24, 32}, {4, 49, 61}, {8, 7, 5}}) {
+    const NuisanceBasis b{nodes, H, W};
+    const int na = b.active(), nm = b.monomials();
+    std::vector<double> T(static_cast<std::size_t>(na * nm)), m(nm), value(na);
+    std::vector<int> index(na);
+    double worst = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const int cell = b.eval(x, y, index.data(), value.data());
+        b.cellTransform(cell, T.data());
+        b.monomial(x, y, m.data());
+        for (int u = 0; u < na; ++u) {
+          double v = 0;
+          for (int j = 0; j < nm; ++j) v += T[u * nm + j] * m[j];
+          worst = std::max(worst, std::abs(v - value[u]));
+        }
+      }
+    EXPECT_LT(worst, 1e-12) << "nodes " << nodes << ", " << H << " x " << W;
   }
 }
 

@@ -196,10 +196,11 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
   for (int k : m.ne.keyframes)
     if (std::find(s.ii.begin(), s.ii.end(), k) != s.ii.end()) sources.push_back(k);
   if (source_terms) source_terms->assign(sources.size(), SourceTerms{});
-  // Nuisance: every grid pixel's active basis coordinates, values and spline cell.
+  // Nuisance: every grid pixel's active basis coordinates, values, monomials and spline cell,
+  // and every cell's map T from the monomials to the active values (NuisanceBasis).
   struct FieldTable {
-    std::vector<int> index, cell;
-    std::vector<double> value;
+    std::vector<int> index, cell, pos_in_cell;
+    std::vector<double> value, mono, T;
     std::vector<std::vector<int>> pixels_of_cell;
   } field;
   if (nuisance) {
@@ -207,12 +208,19 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     field.index.resize(na * HW);
     field.value.resize(na * HW);
     field.cell.resize(HW);
+    field.pos_in_cell.resize(HW);
     field.pixels_of_cell.resize(static_cast<std::size_t>(nuisance->cells()));
     for (int px = 0; px < HW; ++px) {
       field.cell[px] =
           nuisance->eval(px % s.W, px / s.W, &field.index[na * px], &field.value[na * px]);
+      field.pos_in_cell[px] = static_cast<int>(field.pixels_of_cell[field.cell[px]].size());
       field.pixels_of_cell[field.cell[px]].push_back(px);
     }
+    const std::size_t nm = static_cast<std::size_t>(nuisance->monomials());
+    field.mono.resize(nm * HW);
+    for (int px = 0; px < HW; ++px) nuisance->monomial(px % s.W, px / s.W, &field.mono[nm * px]);
+    field.T.resize(na * nm * static_cast<std::size_t>(nuisance->cells()));
+    for (int c = 0; c < nuisance->cells(); ++c) nuisance->cellTransform(c, &field.T[na * nm * c]);
   }
 
   parallelFor(sources.size(), [&](std::size_t si) {
@@ -287,9 +295,17 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     // keyframe), and the blocks Σ φφᵀ.
     const int mn = nuisance ? 2 * nuisance->perChannel() : 0;
     Eigen::MatrixXd b_src, n_raw;
+    std::vector<Eigen::MatrixXd> B_cell;  // per spline cell, B's columns of the cell's pixels
     if (nuisance) {
       b_src = Eigen::MatrixXd::Zero(2 * Q, HW);
       n_raw = Eigen::MatrixXd::Zero(Q * mn, Q * mn);
+      B_cell.resize(field.pixels_of_cell.size());
+      for (std::size_t c = 0; c < B_cell.size(); ++c) {
+        const std::vector<int>& px = field.pixels_of_cell[c];
+        B_cell[c].resize(6 * T, static_cast<Eigen::Index>(px.size()));
+        for (std::size_t k = 0; k < px.size(); ++k)
+          B_cell[c].col(static_cast<Eigen::Index>(k)) = B.col(px[k]);
+      }
     }
     for (int q = 0; q < Q; ++q) {
       EdgeAccum& a = acc[edges[q]];
@@ -315,7 +331,9 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       // row), c_k, and the per-pixel sums.
       Eigen::Matrix<double, 12, Eigen::Dynamic> Um(12, M);
       Eigen::VectorXd sr(M), cr(M), lev(M);
-      Eigen::MatrixXd Acr(12, P), Bp(6 * T, P);  // Σ_k c_k u_k per pixel; the pixels' B_p
+      // Σ_k c_k u_k per pixel; the pixels' B_p (gathered only where I_e or C_p are formed).
+      const bool form_I = !nuisance || info_metric;
+      Eigen::MatrixXd Acr(12, P), Bp(6 * T, form_I ? P : 0);
       Eigen::VectorXd wsq(P);                    // √(Σ c_k²) per pixel
       Eigen::VectorXd gamma(P), hk(P);
       Eigen::Matrix<double, 12, Eigen::Dynamic> alpha(12, P);  // Σ √λ J_d u_k per pixel
@@ -349,7 +367,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           }
         }
         Acr.col(pix) = acr;
-        Bp.col(pix) = B.col(px);
+        if (form_I) Bp.col(pix) = B.col(px);
         wsq[pix] = std::sqrt(w);
         gamma[pix] = gam;
         alpha.col(pix) = al;
@@ -371,12 +389,17 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       a.q = sr.squaredNorm();
       a.lev = lev.sum() + uSu;
       // g = Σ sr_k v_k;  I = Σ v_k v_kᵀ = [Σ u uᵀ] − [Σ c u Bᵀ + transpose] + Σ (Σ c²) B Bᵀ.
-      Eigen::VectorXd g = -(Bp * gamma);
+      Eigen::VectorXd g;
+      if (form_I) {
+        g = -(Bp * gamma);
+      } else {
+        g = Eigen::VectorXd::Zero(6 * T);
+        for (int pix = 0; pix < P; ++pix) g.noalias() -= gamma[pix] * B.col(rq[first_row[pix]].pixel);
+      }
       for (int i = 0; i < 12; ++i) g[idx[i]] += gu[i];
       // The nuisance method needs I only as Σ_e (s_e − 1) I_e, formed per source once the s_e
       // are known (nuisanceCovariance), and tr(Σ I) from I's factors: tr(Σ₁₂ Auu) −
       // 2 Σ_p acr_pᵀ (ΣB_p)_idx + Σ_p w_p B_pᵀ Σ B_p. The other methods need I itself.
-      const bool form_I = !nuisance || info_metric;
       Eigen::MatrixXd I;
       if (form_I) {
         I = Eigen::MatrixXd::Zero(6 * T, 6 * T);
@@ -450,70 +473,80 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         // The field's whitened columns φ_k = √λ Φ(x, y) on the row's channel, on each pixel's
         // active coordinates; per pixel the depth's share b_c = Σ_{rows of channel c} λ J_d.
         const int mb = nuisance->perChannel(), na = nuisance->active();
-        Eigen::Matrix<double, 12, Eigen::Dynamic> CU = Eigen::MatrixXd::Zero(12, mn);
-        Eigen::MatrixXd Nn = Eigen::MatrixXd::Zero(mn, mn), bh = Eigen::MatrixXd::Zero(2, P);
-        Eigen::VectorXd tn = Eigen::VectorXd::Zero(mn);
-        std::vector<std::vector<int>> by_cell(static_cast<std::size_t>(nuisance->cells()));
-        // Σ λ φφᵀ per spline cell and channel on the cell's active coordinates (na × na,
-        // contiguous), scattered into Nn once per cell.
-        const std::size_t nsq = static_cast<std::size_t>(na) * na;
-        std::vector<double> nloc(static_cast<std::size_t>(nuisance->cells()) * 2 * nsq, 0.0);
+        const int nm = nuisance->monomials(), ncell = nuisance->cells();
+        using CellMap = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
+                                                       Eigen::RowMajor>>;
+        // Per spline cell and channel the sums run on the pixels' monomials m (the active values
+        // are T_cell m): Σ √λ m u (12 × nm), Σ λ m mᵀ and the score's Σ m (√λ r − depth's
+        // share), mapped to the cell's active coordinates by T_cell once per cell.
+        using Matrix12X = Eigen::Matrix<double, 12, Eigen::Dynamic>;
+        std::vector<Matrix12X> CUm(2 * ncell, Matrix12X::Zero(12, nm));
+        std::vector<Eigen::MatrixXd> Nm(2 * ncell, Eigen::MatrixXd::Zero(nm, nm));
+        std::vector<Eigen::VectorXd> tm(2 * ncell, Eigen::VectorXd::Zero(nm));
+        Eigen::MatrixXd bh = Eigen::MatrixXd::Zero(2, P);
+        std::vector<std::vector<int>> by_cell(static_cast<std::size_t>(ncell));
         for (int pix = 0; pix < P; ++pix) {
-          const int px = rq[first_row[pix]].pixel;
-          const int* act = &field.index[static_cast<std::size_t>(px) * na];
-          const double* val = &field.value[static_cast<std::size_t>(px) * na];
-          by_cell[field.cell[px]].push_back(pix);
+          const int px = rq[first_row[pix]].pixel, cell = field.cell[px];
+          const double* mo = &field.mono[static_cast<std::size_t>(px) * nm];
+          by_cell[cell].push_back(pix);
           double bc[2] = {0.0, 0.0};
           for (int k = first_row[pix]; k < first_row[pix + 1]; ++k) {
             const Row& r = rq[k];
-            const int off = r.channel * mb;
+            const int ic = 2 * cell + r.channel;
             const double sl = std::sqrt(r.lam);
-            double* nl = &nloc[(static_cast<std::size_t>(field.cell[px]) * 2 + r.channel) * nsq];
-            for (int u = 0; u < na; ++u) {
-              CU.col(off + act[u]) += (sl * val[u]) * Um.col(k);
-              tn[off + act[u]] += sl * sr[k] * val[u];
-              const double lv = r.lam * val[u];
-              for (int w = 0; w < na; ++w) nl[u * na + w] += lv * val[w];
+            Matrix12X& cu = CUm[ic];
+            double* nmat = Nm[ic].data();
+            for (int j = 0; j < nm; ++j) {
+              cu.col(j) += (sl * mo[j]) * Um.col(k);
+              tm[ic][j] += sl * sr[k] * mo[j];
+              const double lv = r.lam * mo[j];
+              for (int l = 0; l < nm; ++l) nmat[j * nm + l] += lv * mo[l];
             }
             bc[r.channel] += r.lam * r.jd;
           }
           if (!(hk[pix] > o.depth_info_eps)) continue;
           for (int c = 0; c < 2; ++c) {
-            for (int u = 0; u < na; ++u) tn[c * mb + act[u]] -= bc[c] * val[u] * gd[px] / hk[pix];
+            const double f = bc[c] * gd[px] / hk[pix];
+            for (int j = 0; j < nm; ++j) tm[2 * cell + c][j] -= f * mo[j];
             bh(c, pix) = bc[c] / hk[pix];
             b_src(2 * q + c, px) = bc[c] / std::sqrt(hk[pix]);
           }
         }
-        for (std::size_t cell = 0; cell < by_cell.size(); ++cell) {
-          if (by_cell[cell].empty()) continue;
-          const int* act =
-              &field.index[static_cast<std::size_t>(rq[first_row[by_cell[cell][0]]].pixel) * na];
-          for (int c = 0; c < 2; ++c) {
-            const double* nl = &nloc[(cell * 2 + c) * nsq];
-            for (int u = 0; u < na; ++u)
-              for (int w = 0; w < na; ++w) Nn(c * mb + act[u], c * mb + act[w]) += nl[u * na + w];
-          }
-        }
+        Matrix12X CU = Matrix12X::Zero(12, mn);
+        Eigen::MatrixXd Nn = Eigen::MatrixXd::Zero(mn, mn);
+        Eigen::VectorXd tn = Eigen::VectorXd::Zero(mn);
         // C = Σ_k v_k φ_kᵀ = Σ u φᵀ − Σ_p B_p (b_c(p) / h_p) φ(p)ᵀ, one product per spline cell
-        // (its pixels share the active coordinates).
+        // (its pixels share the active coordinates) with the source's B of the cell (rows of Y
+        // for the cell's pixels that the edge does not use stay zero), on the monomials too.
         Eigen::MatrixXd Cn = Eigen::MatrixXd::Zero(6 * T, mn);
-        for (const std::vector<int>& cell : by_cell) {
+        for (int ci = 0; ci < ncell; ++ci) {
+          const std::vector<int>& cell = by_cell[ci];
           if (cell.empty()) continue;
-          const int np = static_cast<int>(cell.size());
-          Eigen::MatrixXd Bc(6 * T, np), Y(np, 2 * na);
-          for (int col = 0; col < np; ++col) {
-            const int pix = cell[col];
-            const double* val =
-                &field.value[static_cast<std::size_t>(rq[first_row[pix]].pixel) * na];
-            Bc.col(col) = Bp.col(pix);
-            for (int c = 0; c < 2; ++c)
-              for (int u = 0; u < na; ++u) Y(col, c * na + u) = bh(c, pix) * val[u];
-          }
-          const Eigen::MatrixXd Z = Bc * Y;
+          const CellMap Tc(&field.T[static_cast<std::size_t>(ci) * na * nm], na, nm);
           const int* act =
               &field.index[static_cast<std::size_t>(rq[first_row[cell[0]]].pixel) * na];
-          for (int c = 0; c < 2; ++c)
-            for (int u = 0; u < na; ++u) Cn.col(c * mb + act[u]) -= Z.col(c * na + u);
+          Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(B_cell[ci].cols(), 2 * nm);
+          for (const int pix : cell) {
+            const int px = rq[first_row[pix]].pixel;
+            const double* mo = &field.mono[static_cast<std::size_t>(px) * nm];
+            for (int c = 0; c < 2; ++c)
+              for (int j = 0; j < nm; ++j) Y(field.pos_in_cell[px], c * nm + j) = bh(c, pix) * mo[j];
+          }
+          const Eigen::MatrixXd Z = B_cell[ci] * Y;
+          for (int c = 0; c < 2; ++c) {
+            const int ic = 2 * ci + c;
+            const Matrix12X cu = CUm[ic] * Tc.transpose();
+            const Eigen::MatrixXd nn = Tc * Nm[ic] * Tc.transpose();
+            const Eigen::VectorXd tt = Tc * tm[ic];
+            const Eigen::MatrixXd zc = Z.middleCols(c * nm, nm) * Tc.transpose();
+            for (int u = 0; u < na; ++u) {
+              const int col = c * mb + act[u];
+              CU.col(col) += cu.col(u);
+              tn[col] += tt[u];
+              Cn.col(col) -= zc.col(u);
+              for (int w = 0; w < na; ++w) Nn(col, c * mb + act[w]) += nn(u, w);
+            }
+          }
         }
         for (int i = 0; i < 12; ++i) Cn.row(idx[i]) += CU.row(i);
         n_raw.block(q * mn, q * mn, mn, mn) = Nn;
@@ -552,25 +585,34 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       // pixels touch the same coordinates of every edge, (q, c, active u) -> q·mn + c·mb +
       // index[u].
       const int mb = nuisance->perChannel(), na = nuisance->active();
+      const int nm = nuisance->monomials();
       Eigen::MatrixXd Ms = n_raw;
-      for (const std::vector<int>& cell : field.pixels_of_cell) {
+      for (std::size_t ci = 0; ci < field.pixels_of_cell.size(); ++ci) {
+        const std::vector<int>& cell = field.pixels_of_cell[ci];
         if (cell.empty()) continue;
+        // On the monomials: Lm = Σ_p (b_p ⊗ m_p)(b_p ⊗ m_p)ᵀ, then each (qc, rc) block mapped
+        // by T_cell (2Q·nm square instead of 2Q·na).
         const int np = static_cast<int>(cell.size());
-        Eigen::MatrixXd Zc(2 * Q * na, np);
+        Eigen::MatrixXd Zc(2 * Q * nm, np);
         for (int col = 0; col < np; ++col) {
-          const double* val = &field.value[static_cast<std::size_t>(cell[col]) * na];
+          const double* mo = &field.mono[static_cast<std::size_t>(cell[col]) * nm];
           for (int qc = 0; qc < 2 * Q; ++qc)
-            for (int u = 0; u < na; ++u) Zc(qc * na + u, col) = b_src(qc, cell[col]) * val[u];
+            for (int j = 0; j < nm; ++j) Zc(qc * nm + j, col) = b_src(qc, cell[col]) * mo[j];
         }
-        Eigen::MatrixXd Lc = Eigen::MatrixXd::Zero(2 * Q * na, 2 * Q * na);
-        Lc.selfadjointView<Eigen::Lower>().rankUpdate(Zc);
-        Lc = Lc.selfadjointView<Eigen::Lower>();
+        Eigen::MatrixXd Lm = Eigen::MatrixXd::Zero(2 * Q * nm, 2 * Q * nm);
+        Lm.selfadjointView<Eigen::Lower>().rankUpdate(Zc);
+        Lm = Lm.selfadjointView<Eigen::Lower>();
+        const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
+                                             Eigen::RowMajor>>
+            Tc(&field.T[ci * static_cast<std::size_t>(na * nm)], na, nm);
         const int* act = &field.index[static_cast<std::size_t>(cell[0]) * na];
-        std::vector<int> to(2 * Q * na);
         for (int qc = 0; qc < 2 * Q; ++qc)
-          for (int u = 0; u < na; ++u) to[qc * na + u] = (qc / 2) * mn + (qc % 2) * mb + act[u];
-        for (int c = 0; c < 2 * Q * na; ++c)
-          for (int r = 0; r < 2 * Q * na; ++r) Ms(to[r], to[c]) -= Lc(r, c);
+          for (int rc = 0; rc < 2 * Q; ++rc) {
+            const Eigen::MatrixXd blk = Tc * Lm.block(qc * nm, rc * nm, nm, nm) * Tc.transpose();
+            const int r0 = (qc / 2) * mn + (qc % 2) * mb, c0 = (rc / 2) * mn + (rc % 2) * mb;
+            for (int w = 0; w < na; ++w)
+              for (int u = 0; u < na; ++u) Ms(r0 + act[u], c0 + act[w]) -= blk(u, w);
+          }
       }
       Eigen::MatrixXd Cs = Eigen::MatrixXd::Zero(6 * T, Q * mn);
       for (int q = 0; q < Q; ++q)

@@ -39,6 +39,34 @@ struct NuisanceBasis {
     value[5] = wv * (1 - wu), value[6] = wv * wu;
     return a * (nodes - 1) + b;
   }
+  /// Within a spline cell every active value is a polynomial in the pixel's monomials m =
+  /// [1, u, v] (affine) or [1, u, v, uv] (tents: bilinear in the cell): value = T_cell m. Sums
+  /// over a cell's pixels can then run on the monomials() and be mapped by T_cell once.
+  int monomials() const { return nodes >= 2 ? 4 : 3; }
+  void monomial(int x, int y, double* m) const {
+    const double u = (x - 0.5 * (W - 1)) / (0.5 * W), v = (y - 0.5 * (H - 1)) / (0.5 * H);
+    m[0] = 1.0, m[1] = u, m[2] = v;
+    if (nodes >= 2) m[3] = u * v;
+  }
+  /// T_cell, active() × monomials() row-major: with wu = α u + β_u, wv = α v + β_v in the cell
+  /// (α = 1/step, β_u = 1/step − b, β_v = 1/step − a for the cell's column b and row a).
+  void cellTransform(int cell, double* T) const {
+    const int nm = monomials(), na = active();
+    for (int i = 0; i < na * nm; ++i) T[i] = 0.0;
+    T[0 * nm + 0] = 1.0, T[1 * nm + 1] = 1.0, T[2 * nm + 2] = 1.0;
+    if (nodes < 2) return;
+    const int b = cell % (nodes - 1), a = cell / (nodes - 1);
+    const double al = (nodes - 1) / 2.0, bu = al - b, bv = al - a;
+    // (c0 + c1 u)(d0 + d2 v) = c0 d0 + c1 d0 u + c0 d2 v + c1 d2 uv
+    const auto product = [&](int row, double c0, double c1, double d0, double d2) {
+      T[row * nm + 0] = c0 * d0, T[row * nm + 1] = c1 * d0, T[row * nm + 2] = c0 * d2,
+      T[row * nm + 3] = c1 * d2;
+    };
+    product(3, 1 - bu, -al, 1 - bv, -al);  // (1 − wu)(1 − wv)
+    product(4, bu, al, 1 - bv, -al);       // wu (1 − wv)
+    product(5, 1 - bu, -al, bv, al);       // (1 − wu) wv
+    product(6, bu, al, bv, al);            // wu wv
+  }
 };
 
 }  // namespace dbacov
