@@ -19,6 +19,7 @@
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/scenario.h"
+#include "dbacov/sim/sensor_modes.h"
 #include "fixtures.h"
 
 namespace dbacov {
@@ -375,8 +376,8 @@ void expectNuisanceMatchesDenseReference(int nodes) {
 /// identity the nuisance sums rely on to run on 4 monomials instead of 7 values, checked at every
 /// pixel of grids whose cells are uneven, against NuisanceBasis::eval.
 TEST(SelfCalibration, NuisanceCellTransformReproducesTheBasis) {
-  for (const auto& [nodes, H, W] : std::vector<std::array<int, 3>>{
-           {0, 5, 7}, {2, 6, 9}, {3, 24, 32}, {4, 49, 61}, {8, 7, 5}}) {
+  for (const auto& [nodes, H, W] :
+       std::vector<std::array<int, 3>>{{0, 5, 7}, {2, 6, 9}, {3, 24, 32}, {4, 49, 61}, {8, 7, 5}}) {
     const NuisanceBasis b{nodes, H, W};
     const int na = b.active(), nm = b.monomials();
     std::vector<double> T(static_cast<std::size_t>(na * nm)), m(nm), value(na);
@@ -469,10 +470,73 @@ TEST(SelfCalibration, HandedLinearizationGivesTheSameCovariance) {
     EXPECT_LE((handed.marginal(k) - want).norm(), 1e-12 * (1e-300 + want.norm())) << k;
     EXPECT_LE((with_depths.marginal(k) - want).norm(), 1e-12 * (1e-300 + want.norm())) << k;
   }
+  // A calibration or a linearization of another snapshot is refused, not used.
+  SelfCalibration other = cal;
+  other.edges[1].j = other.edges[1].i;
+  EXPECT_THROW(selfCalibratedCovariance(sim.snapshot, o, {}, other), std::invalid_argument);
+  auto lin = std::make_shared<DbaNormalEquations>(*cal.linearization);
+  lin->keyframes.pop_back();
+  CovarianceOptions foreign;
+  foreign.reduced_covariance = cal.reduced_covariance;
+  foreign.linearization = lin;
+  EXPECT_THROW(DbaCovariance(sim.snapshot, o, foreign), std::invalid_argument);
   const int src = static_cast<int>(sim.snapshot.ii[0]);
   const std::vector<float> sd = with_depths.inverseDepthSigma(src);
   ASSERT_EQ(sd.size(), sim.snapshot.pixelsPerFrame());
   EXPECT_TRUE(std::any_of(sd.begin(), sd.end(), [](float v) { return v > 0; }));
+}
+
+/// DROID's stereo edges (k, k) act on the depths alone and RGB-D sensor depths likewise: the
+/// residual pass must treat them as the linearization does. A stereo edge treated as a pose
+/// factor of T_ji = I would read its disparity as a flow error, and the shared field variance
+/// with it (σ_a 0.1 px against 0.001 px without stereo edges); sensor depths left out of the
+/// depth information would make the depths absorb too much and the white scale too large.
+TEST(SelfCalibration, StereoAndSensorDepthsAreFactorsOnTheDepths) {
+  const sim::Scenario sc(smallScenario(14, 24, 32));
+  const sim::SimulatedSnapshot sim = sc.simulate(0, 0);
+  const DbaOptions o = sc.config().engineOptions();
+  SelfCalibrationOptions c;
+  c.method = SelfCalibrationMethod::Nuisance;
+  const SelfCalibration mono = selfCalibrate(sim.snapshot, o, c);
+  Snapshot stereo = sim.snapshot;
+  sim::StereoConfig sc_stereo;
+  sc_stereo.weight_scale = o.weight_scale;  // the noise its confidences claim
+  sim::addStereoEdges(stereo, sc_stereo);
+  stereo.validate();
+  ASSERT_GT(stereo.numEdges(), sim.snapshot.numEdges());
+  const SelfCalibration st = selfCalibrate(stereo, o, c);
+  EXPECT_LT(st.nuisance_sigma, 0.02) << "mono " << mono.nuisance_sigma;
+  EXPECT_NEAR(medianInflation(st), medianInflation(mono), 0.1 * medianInflation(mono));
+  EXPECT_NEAR(st.global_scale, 1.0, 0.05);
+  for (const EdgeCalibration& e : st.edges)
+    if (e.i == e.j) {
+      EXPECT_EQ(e.rows, 0u) << "stereo edge " << e.edge;
+      EXPECT_EQ(e.inflation, 1.0) << "stereo edge " << e.edge;
+    }
+  EXPECT_NO_THROW(selfCalibratedCovariance(stereo, o, {}, st));
+
+  Snapshot rgbd = sim.snapshot;
+  sim::RgbdConfig rc;
+  rgbd.validate();
+  sim::addSensorDepth(rgbd, rc);
+  DbaOptions orgbd = o;
+  orgbd.sensor_depth_weight = rc.alpha;  // the noise the readings have
+  const SelfCalibration sd = selfCalibrate(rgbd, orgbd, c);
+  EXPECT_NEAR(sd.global_scale, 1.0, 0.05);
+  EXPECT_NEAR(medianInflation(sd), 1.0, 0.1);
+  // Depths pinned by exact readings on every pixel take nothing from the flow rows: their
+  // leverages add up to the poses' share (< 6 per keyframe), not one more per depth.
+  Snapshot pinned = sim.snapshot;
+  sim::RgbdConfig exact;
+  exact.valid_fraction = 1.0;
+  exact.noise = false;
+  sim::addSensorDepth(pinned, exact);
+  DbaOptions opinned = o;
+  opinned.sensor_depth_weight = 1e8;
+  double leverage = 0;
+  for (const EdgeCalibration& e : selfCalibrate(pinned, opinned, c).edges)
+    leverage += static_cast<double>(e.rows) - e.redundancy;
+  EXPECT_LT(leverage, 6.0 * pinned.numKeyframes());
 }
 
 TEST(SelfCalibration, WrongWeightScaleIsCorrected) {

@@ -19,6 +19,7 @@
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/nuisance_basis.h"
 #include "dbacov/core/parallel.h"
+#include "depth_only_factors.h"
 
 namespace dbacov {
 
@@ -119,17 +120,18 @@ struct EdgeAccum {
   Eigen::VectorXd g;  ///< 6n, depth-reduced score
   // Nuisance only, on the edge's source slots (slots[a] = the a-th 6-block's keyframe slot):
   std::vector<int> slots;
-  // Nuisance: the factors of I_e, the edge's 6T × 6T share of S (not formed), I = P(Auu)Pᵀ − (P Acr
-  // Bᵀ + transpose) + B diag(w) Bᵀ over the source's depth columns B (SourceTerms), P scattering
-  // the edge's 12 coordinates idx into the 6T.
+  // Nuisance: the factors of I_e, the edge's 6T × 6T share of S (not formed), I = P(Auu)Pᵀ −
+  // (P X + transpose) + B diag(w) Bᵀ over the source's depth columns B (SourceTerms), P scattering
+  // the edge's 12 coordinates idx into the 6T and X = Σ_p acr_p B_pᵀ (12 × 6T: small, where the
+  // acr_p themselves would be 12 per pixel).
   int source = -1;            ///< index into the pass's SourceTerms
   std::array<int, 12> idx{};  ///< the edge's 12 coordinates within the source's 6T
   Matrix12d Auu;              ///< Σ u uᵀ
-  Eigen::MatrixXd Acr;        ///< 12 × P, Σ_k c_k u_k per pixel of the edge
-  Eigen::VectorXd w;          ///< P, Σ_k c_k² per pixel
-  std::vector<int> pixel_of;  ///< P, the pixels
-  Eigen::MatrixXd C;          ///< 6T × m, Σ_{rows of e} v φᵀ
-  Eigen::MatrixXd Mn;         ///< m × m, the field's information after poses and depths
+  Eigen::Matrix<double, 12, Eigen::Dynamic> cross;  ///< 12 × 6T, Σ_p (Σ_k c_k u_k) B_pᵀ
+  Eigen::VectorXd w;                                ///< P, Σ_k c_k² per pixel
+  std::vector<int> pixel_of;                        ///< P, the pixels
+  Eigen::MatrixXd C;                                ///< 6T × m, Σ_{rows of e} v φᵀ
+  Eigen::MatrixXd Mn;  ///< m × m, the field's information after poses and depths
   /// Per field group g, m × m: (M_s D_g M_s)_ee, Cov(t) per unit σ_g² (the source's fields).
   std::vector<Eigen::MatrixXd> An;
   std::vector<int> group;    ///< the group of each of the m coordinates
@@ -225,9 +227,16 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
 
   parallelFor(sources.size(), [&](std::size_t si) {
     const int src = sources[si];
-    std::vector<int> touched{m.ne.slot_of[src]}, edges, tpos;
+    std::vector<int> touched{m.ne.slot_of[src]}, edges, tpos, stereo;
     for (int e = 0; e < E; ++e) {
       if (s.ii[e] != src) continue;
+      // A stereo edge (k, k) is a factor on the depths alone (fixed rig transform; conventions
+      // §2, depth_only_factors.h): it has no pose rows here and keeps its weights, and its depth
+      // information enters every pixel's h and gradient below, as in the linearization.
+      if (s.jj[e] == src) {
+        stereo.push_back(e);
+        continue;
+      }
       const int slot = m.ne.slot_of[s.jj[e]];
       auto it = std::find(touched.begin(), touched.end(), slot);
       tpos.push_back(static_cast<int>(it - touched.begin()));
@@ -278,6 +287,14 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         }
       }
     }
+    // The factors on the depths alone (stereo edges, RGB-D sensor depths): information and
+    // gradient of the pixel's depth, as linearizeDba adds them before eliminating it.
+    const detail::DepthOnlyTerms depth_only = detail::depthOnlyTerms(s, o, src, stereo);
+    if (depth_only.any)
+      for (int p = 0; p < HW; ++p) {
+        h[p] += depth_only.h[p];
+        gd[p] += depth_only.g[p];
+      }
 
     // Every depth-reduced row is v_k = u_k − c_k B_p (u_k = √λ [J_i | J_j] on two slots, c_k =
     // √λ J_d / h_p, B_p the pixel's depth column shared by all its rows), so the products with
@@ -312,8 +329,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       const std::vector<Row>& rq = rows[q];
       const int M = static_cast<int>(rq.size());
       if (M == 0) continue;
-      // The 12 coordinates of u within the 6T of the source's slots (a repeated slot, the stereo
-      // edge (k, k), maps both halves onto slot 0: every sum below scatters by adding).
+      // The 12 coordinates of u within the 6T of the source's slots (every sum below scatters
+      // by adding, so a repeated coordinate would add up).
       std::array<int, 12> idx;
       for (int i = 0; i < 6; ++i) {
         idx[i] = i;
@@ -334,7 +351,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       // Σ_k c_k u_k per pixel; the pixels' B_p (gathered only where I_e or C_p are formed).
       const bool form_I = !nuisance || info_metric;
       Eigen::MatrixXd Acr(12, P), Bp(6 * T, form_I ? P : 0);
-      Eigen::VectorXd wsq(P);                    // √(Σ c_k²) per pixel
+      Eigen::VectorXd wsq(P);  // √(Σ c_k²) per pixel
       Eigen::VectorXd gamma(P), hk(P);
       Eigen::Matrix<double, 12, Eigen::Dynamic> alpha(12, P);  // Σ √λ J_d u_k per pixel
       Eigen::VectorXd beta(P);                                 // Σ √λ J_d c_k per pixel
@@ -394,7 +411,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         g = -(Bp * gamma);
       } else {
         g = Eigen::VectorXd::Zero(6 * T);
-        for (int pix = 0; pix < P; ++pix) g.noalias() -= gamma[pix] * B.col(rq[first_row[pix]].pixel);
+        for (int pix = 0; pix < P; ++pix)
+          g.noalias() -= gamma[pix] * B.col(rq[first_row[pix]].pixel);
       }
       for (int i = 0; i < 12; ++i) g[idx[i]] += gu[i];
       // The nuisance method needs I only as Σ_e (s_e − 1) I_e, formed per source once the s_e
@@ -474,8 +492,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         // active coordinates; per pixel the depth's share b_c = Σ_{rows of channel c} λ J_d.
         const int mb = nuisance->perChannel(), na = nuisance->active();
         const int nm = nuisance->monomials(), ncell = nuisance->cells();
-        using CellMap = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
-                                                       Eigen::RowMajor>>;
+        using CellMap = Eigen::Map<
+            const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
         // Per spline cell and channel the sums run on the pixels' monomials m (the active values
         // are T_cell m): Σ √λ m u (12 × nm), Σ λ m mᵀ and the score's Σ m (√λ r − depth's
         // share), mapped to the cell's active coordinates by T_cell once per cell.
@@ -530,7 +548,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
             const int px = rq[first_row[pix]].pixel;
             const double* mo = &field.mono[static_cast<std::size_t>(px) * nm];
             for (int c = 0; c < 2; ++c)
-              for (int j = 0; j < nm; ++j) Y(field.pos_in_cell[px], c * nm + j) = bh(c, pix) * mo[j];
+              for (int j = 0; j < nm; ++j)
+                Y(field.pos_in_cell[px], c * nm + j) = bh(c, pix) * mo[j];
           }
           const Eigen::MatrixXd Z = B_cell[ci] * Y;
           for (int c = 0; c < 2; ++c) {
@@ -555,7 +574,12 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.source = static_cast<int>(si);
         a.idx = idx;
         a.Auu = Auu;
-        a.Acr = std::move(Acr);
+        {
+          Eigen::Matrix<double, 12, Eigen::Dynamic> acr_all =
+              Eigen::Matrix<double, 12, Eigen::Dynamic>::Zero(12, HW);
+          for (int pix = 0; pix < P; ++pix) acr_all.col(rq[first_row[pix]].pixel) = Acr.col(pix);
+          a.cross = acr_all * B.transpose();
+        }
         a.w = wsq.cwiseAbs2();
         a.pixel_of.resize(P);
         for (int pix = 0; pix < P; ++pix) a.pixel_of[pix] = rq[first_row[pix]].pixel;
@@ -602,8 +626,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         Eigen::MatrixXd Lm = Eigen::MatrixXd::Zero(2 * Q * nm, 2 * Q * nm);
         Lm.selfadjointView<Eigen::Lower>().rankUpdate(Zc);
         Lm = Lm.selfadjointView<Eigen::Lower>();
-        const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
-                                             Eigen::RowMajor>>
+        const Eigen::Map<
+            const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
             Tc(&field.T[ci * static_cast<std::size_t>(na * nm)], na, nm);
         const int* act = &field.index[static_cast<std::size_t>(cell[0]) * na];
         for (int qc = 0; qc < 2 * Q; ++qc)
@@ -832,13 +856,13 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
         X.block<6, 6>(6 * a.slots[p], 6 * a.slots[q]) += Xe.block<6, 6>(6 * p, 6 * q);
   }
   // Σ_e (s_e − 1) I_e, per source from the factors of its edges' I_e (EdgeAccum): with
-  // f_e = s_e − 1, A = Σ_e f_e P_e Acr_e (6T × HW, the edges' pixels) and ω = Σ_e f_e w_e,
-  // Σ_e f_e I_e = Σ_e f_e P_e Auu_e P_eᵀ + N + Nᵀ with N = (½ B diag(ω) − A) Bᵀ.
+  // f_e = s_e − 1 and ω = Σ_e f_e w_e (per pixel), Σ_e f_e I_e = Σ_e f_e (P_e Auu_e P_eᵀ −
+  // P_e X_e − X_eᵀ P_eᵀ) + B diag(ω) Bᵀ: one 6T × HW × 6T product per source.
   for (std::size_t si = 0; si < sources.size(); ++si) {
     const SourceTerms& st = sources[si];
     if (st.B.size() == 0) continue;
     const int T6 = static_cast<int>(st.B.rows()), HW = static_cast<int>(st.B.cols());
-    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(T6, HW), Xs = Eigen::MatrixXd::Zero(T6, T6);
+    Eigen::MatrixXd Xs = Eigen::MatrixXd::Zero(T6, T6);
     Eigen::VectorXd omega = Eigen::VectorXd::Zero(HW);
     bool any = false;
     for (int e = 0; e < E; ++e) {
@@ -847,19 +871,16 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       const double f = se[e] - 1.0;
       if (f == 0) continue;
       any = true;
-      for (int i = 0; i < 12; ++i)
+      for (int i = 0; i < 12; ++i) {
         for (int j = 0; j < 12; ++j) Xs(a.idx[i], a.idx[j]) += f * a.Auu(i, j);
-      for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix) {
-        const int px = a.pixel_of[pix];
-        omega[px] += f * a.w[static_cast<Eigen::Index>(pix)];
-        for (int i = 0; i < 12; ++i)
-          A(a.idx[i], px) += f * a.Acr(i, static_cast<Eigen::Index>(pix));
+        Xs.row(a.idx[i]) -= f * a.cross.row(i);
+        Xs.col(a.idx[i]) -= f * a.cross.row(i).transpose();
       }
+      for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
+        omega[a.pixel_of[pix]] += f * a.w[static_cast<Eigen::Index>(pix)];
     }
     if (!any) continue;
-    A = 0.5 * st.B * omega.asDiagonal() - A;
-    const Eigen::MatrixXd N = A * st.B.transpose();
-    Xs += N + N.transpose();
+    Xs.noalias() += (st.B * omega.asDiagonal()) * st.B.transpose();
     const int T = static_cast<int>(st.touched.size());
     for (int p = 0; p < T; ++p)
       for (int q = 0; q < T; ++q)
@@ -1012,6 +1033,16 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
                                        const SelfCalibration& cal) {
   // summary() says which self-calibration the covariance is the result of (it used to say
   // "none": nothing filled it).
+  if (static_cast<int>(cal.edges.size()) != s.numEdges())
+    throw std::invalid_argument(s.source + ": the self-calibration has " +
+                                std::to_string(cal.edges.size()) + " edges, the snapshot " +
+                                std::to_string(s.numEdges()) + ": it is of another snapshot");
+  for (int e = 0; e < s.numEdges(); ++e)
+    if (cal.edges[e].i != s.ii[e] || cal.edges[e].j != s.jj[e])
+      throw std::invalid_argument(
+          s.source + ": edge " + std::to_string(e) + " is (" + std::to_string(s.ii[e]) + ", " +
+          std::to_string(s.jj[e]) + "), the self-calibration's (" + std::to_string(cal.edges[e].i) +
+          ", " + std::to_string(cal.edges[e].j) + "): it is of another snapshot");
   SelfCalibrationSummary summary{toString(cal.method), cal.inflations()};
   if (cal.reduced_covariance) {
     CovarianceOptions so = solver;

@@ -59,8 +59,11 @@ struct NuisanceBasis {
     const double al = (nodes - 1) / 2.0, bu = al - b, bv = al - a;
     // (c0 + c1 u)(d0 + d2 v) = c0 d0 + c1 d0 u + c0 d2 v + c1 d2 uv
     const auto product = [&](int row, double c0, double c1, double d0, double d2) {
-      T[row * nm + 0] = c0 * d0, T[row * nm + 1] = c1 * d0, T[row * nm + 2] = c0 * d2,
-      T[row * nm + 3] = c1 * d2;
+      double* t = T + row * nm;
+      t[0] = c0 * d0;
+      t[1] = c1 * d0;
+      t[2] = c0 * d2;
+      t[3] = c1 * d2;
     };
     product(3, 1 - bu, -al, 1 - bv, -al);  // (1 − wu)(1 − wv)
     product(4, bu, al, 1 - bv, -al);       // wu (1 − wv)
