@@ -489,7 +489,7 @@ TEST(SelfCalibration, HandedLinearizationGivesTheSameCovariance) {
 /// DROID's stereo edges (k, k) act on the depths alone and RGB-D sensor depths likewise: the
 /// residual pass must treat them as the linearization does. A stereo edge treated as a pose
 /// factor of T_ji = I would read its disparity as a flow error, and the shared field variance
-/// with it (σ_a 0.1 px against 0.001 px without stereo edges); sensor depths left out of the
+/// with it (σ_a 0.1 px against 0.003 px without stereo edges); sensor depths left out of the
 /// depth information would make the depths absorb too much and the white scale too large.
 TEST(SelfCalibration, StereoAndSensorDepthsAreFactorsOnTheDepths) {
   const sim::Scenario sc(smallScenario(14, 24, 32));

@@ -86,14 +86,12 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   snapshot.validate();  // the API boundary: InputError for an invalid snapshot (covariance.h)
   Impl& m = *impl_;
   const auto t0 = Clock::now();
-  if (so.linearization && !so.depth_variances &&
-      (static_cast<int>(so.linearization->slot_of.size()) != snapshot.numKeyframes() ||
-       so.linearization->keyframes != snapshot.graphKeyframes()))
+  const bool handed = so.linearization && !so.depth_variances;
+  if (handed && (static_cast<int>(so.linearization->slot_of.size()) != snapshot.numKeyframes() ||
+                 so.linearization->keyframes != snapshot.graphKeyframes()))
     throw std::invalid_argument("CovarianceOptions::linearization is not that of this snapshot (" +
                                 snapshot.source + "): its keyframes differ");
-  m.ne = so.linearization && !so.depth_variances
-             ? *so.linearization
-             : linearizeDba(snapshot, options, so.depth_variances);
+  m.ne = handed ? *so.linearization : linearizeDba(snapshot, options, so.depth_variances);
   const auto t1 = Clock::now();
   // Values that pass validation can still overflow double precision in the factor (e.g. a
   // principal point of 1e154): refuse before the solver turns them into NaN covariances.

@@ -198,23 +198,23 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
   for (int k : m.ne.keyframes)
     if (std::find(s.ii.begin(), s.ii.end(), k) != s.ii.end()) sources.push_back(k);
   if (source_terms) source_terms->assign(sources.size(), SourceTerms{});
-  // Nuisance: every grid pixel's active basis coordinates, values, monomials and spline cell,
-  // and every cell's map T from the monomials to the active values (NuisanceBasis).
+  // Nuisance: every grid pixel's active basis coordinates, monomials and spline cell, and every
+  // cell's map T from the monomials to the active values (NuisanceBasis; the sums run on the
+  // monomials, so the values themselves are not kept).
   struct FieldTable {
     std::vector<int> index, cell, pos_in_cell;
-    std::vector<double> value, mono, T;
+    std::vector<double> mono, T;
     std::vector<std::vector<int>> pixels_of_cell;
   } field;
   if (nuisance) {
     const std::size_t na = static_cast<std::size_t>(nuisance->active());
     field.index.resize(na * HW);
-    field.value.resize(na * HW);
+    std::vector<double> value(na);
     field.cell.resize(HW);
     field.pos_in_cell.resize(HW);
     field.pixels_of_cell.resize(static_cast<std::size_t>(nuisance->cells()));
     for (int px = 0; px < HW; ++px) {
-      field.cell[px] =
-          nuisance->eval(px % s.W, px / s.W, &field.index[na * px], &field.value[na * px]);
+      field.cell[px] = nuisance->eval(px % s.W, px / s.W, &field.index[na * px], value.data());
       field.pos_in_cell[px] = static_cast<int>(field.pixels_of_cell[field.cell[px]].size());
       field.pixels_of_cell[field.cell[px]].push_back(px);
     }
