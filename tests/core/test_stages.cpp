@@ -6,9 +6,11 @@
 #include <Eigen/Dense>
 
 #include "dbacov/core/gauge.h"
+#include "dbacov/core/kernel_isa.h"
 #include "dbacov/core/linearization.h"
 #include "dense_reference.h"
 #include "fixtures.h"
+#include "kernel_variants.h"
 
 namespace dbacov {
 namespace {
@@ -22,49 +24,53 @@ DbaOptions hardGauge() {
   return testing::gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0);
 }
 
+// Every variant of the pixel kernel this CPU runs (kernel_isa.h: AVX2+FMA, the x86-64 baseline)
+// against the same dense reference; the 8 × 10 grid ends in a short chunk of 16 lanes.
 TEST(LinearizationStage, NormalEquationsEqualTheDenseJacobianProduct) {
-  const sim::SyntheticSnapshot syn = testing::tinySnapshot(11, 0);
-  const Snapshot& s = syn.snapshot;
-  const DbaOptions o = hardGauge();
-  const DbaNormalEquations ne = linearizeDba(s, o, true);
-  const testing::DenseFullSystem ref = testing::denseFullSystem(s, o);
-  const int np = ref.numPoseDims(), nd = static_cast<int>(ref.depth_vars.size());
-  ASSERT_EQ(ne.keyframes, ref.keyframes);
-  ASSERT_GT(nd, 0);
+  testing::forEachKernelIsa([](kernel::Isa) {
+    const sim::SyntheticSnapshot syn = testing::tinySnapshot(11, 0);
+    const Snapshot& s = syn.snapshot;
+    const DbaOptions o = hardGauge();
+    const DbaNormalEquations ne = linearizeDba(s, o, true);
+    const testing::DenseFullSystem ref = testing::denseFullSystem(s, o);
+    const int np = ref.numPoseDims(), nd = static_cast<int>(ref.depth_vars.size());
+    ASSERT_EQ(ne.keyframes, ref.keyframes);
+    ASSERT_GT(nd, 0);
 
-  const Eigen::MatrixXd Hpp = ref.H.topLeftCorner(np, np);
-  const Eigen::MatrixXd Hpd = ref.H.topRightCorner(np, nd);
-  const Eigen::VectorXd hdd = ref.H.bottomRightCorner(nd, nd).diagonal();
-  // Hdd is diagonal: each depth is a scalar shared only by the factors of its pixel.
-  EXPECT_LT((ref.H.bottomRightCorner(nd, nd) - Eigen::MatrixXd(hdd.asDiagonal())).norm(),
-            1e-12 * hdd.norm());
-  EXPECT_LT(relativeError(ne.Hpp.toDense(), Hpp), 1e-10);
-  EXPECT_LT(relativeError(ne.g_p, ref.g.head(np)), 1e-10);
+    const Eigen::MatrixXd Hpp = ref.H.topLeftCorner(np, np);
+    const Eigen::MatrixXd Hpd = ref.H.topRightCorner(np, nd);
+    const Eigen::VectorXd hdd = ref.H.bottomRightCorner(nd, nd).diagonal();
+    // Hdd is diagonal: each depth is a scalar shared only by the factors of its pixel.
+    EXPECT_LT((ref.H.bottomRightCorner(nd, nd) - Eigen::MatrixXd(hdd.asDiagonal())).norm(),
+              1e-12 * hdd.norm());
+    EXPECT_LT(relativeError(ne.Hpp.toDense(), Hpp), 1e-10);
+    EXPECT_LT(relativeError(ne.g_p, ref.g.head(np)), 1e-10);
 
-  // S = Hpp − Hpd Hdd⁻¹ Hdp and g_S = g_p − Hpd Hdd⁻¹ g_d, formed densely.
-  const Eigen::VectorXd inv_h = hdd.cwiseInverse();
-  const Eigen::MatrixXd S = Hpp - Hpd * inv_h.asDiagonal() * Hpd.transpose();
-  const Eigen::VectorXd gS = ref.g.head(np) - Hpd * inv_h.cwiseProduct(ref.g.tail(nd));
-  EXPECT_LT(relativeError(ne.S.toDense(), S), 1e-9);
-  EXPECT_LT(relativeError(ne.g_S, gS), 1e-9);
+    // S = Hpp − Hpd Hdd⁻¹ Hdp and g_S = g_p − Hpd Hdd⁻¹ g_d, formed densely.
+    const Eigen::VectorXd inv_h = hdd.cwiseInverse();
+    const Eigen::MatrixXd S = Hpp - Hpd * inv_h.asDiagonal() * Hpd.transpose();
+    const Eigen::VectorXd gS = ref.g.head(np) - Hpd * inv_h.cwiseProduct(ref.g.tail(nd));
+    EXPECT_LT(relativeError(ne.S.toDense(), S), 1e-9);
+    EXPECT_LT(relativeError(ne.g_S, gS), 1e-9);
 
-  // The kept depth terms: h_k and the columns b_k of Hpd on the touched slots.
-  std::size_t kept = 0;
-  for (const DepthTerms& dt : ne.depths) {
-    const int source = ne.keyframes[dt.source_slot];
-    for (std::size_t c = 0; c < dt.pixel.size(); ++c, ++kept) {
-      int var = -1;
-      for (int v = 0; v < nd; ++v)
-        if (ref.depth_vars[v] == std::make_pair(source, dt.pixel[c])) var = v;
-      ASSERT_GE(var, 0);
-      EXPECT_NEAR(dt.h[c], hdd[var], 1e-10 * hdd[var]);
-      for (std::size_t t = 0; t < dt.touched.size(); ++t)
-        EXPECT_LT((dt.B.block(6 * t, c, 6, 1) - Hpd.block(6 * dt.touched[t], var, 6, 1)).norm(),
-                  1e-9 * (1 + Hpd.col(var).norm()));
+    // The kept depth terms: h_k and the columns b_k of Hpd on the touched slots.
+    std::size_t kept = 0;
+    for (const DepthTerms& dt : ne.depths) {
+      const int source = ne.keyframes[dt.source_slot];
+      for (std::size_t c = 0; c < dt.pixel.size(); ++c, ++kept) {
+        int var = -1;
+        for (int v = 0; v < nd; ++v)
+          if (ref.depth_vars[v] == std::make_pair(source, dt.pixel[c])) var = v;
+        ASSERT_GE(var, 0);
+        EXPECT_NEAR(dt.h[c], hdd[var], 1e-10 * hdd[var]);
+        for (std::size_t t = 0; t < dt.touched.size(); ++t)
+          EXPECT_LT((dt.B.block(6 * t, c, 6, 1) - Hpd.block(6 * dt.touched[t], var, 6, 1)).norm(),
+                    1e-9 * (1 + Hpd.col(var).norm()));
+      }
     }
-  }
-  EXPECT_EQ(kept, static_cast<std::size_t>(nd));
-  EXPECT_EQ(ne.stats.depths_used, static_cast<std::size_t>(nd));
+    EXPECT_EQ(kept, static_cast<std::size_t>(nd));
+    EXPECT_EQ(ne.stats.depths_used, static_cast<std::size_t>(nd));
+  });
 }
 
 TEST(LinearizationStage, AWrongJacobianIsCaught) {

@@ -1,22 +1,32 @@
 #include "dba_kernel.h"
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstddef>
+#include <cstdlib>
+#include <cstring>
+#include <iterator>
+#include <stdexcept>
+#include <string>
 
 namespace dbacov::kernel {
 namespace {
 
 /// C += X Xᵀ on the lower triangle (C row-major with leading dimension ldc) for the m rows of X,
-/// row r at X + r·L. Blocks of 2 × 4 outputs keep eight accumulators in registers, so each loaded
-/// vector feeds 4/3 FMAs instead of 1/2 for one dot product at a time. Inlined into both clones of
-/// processChunk so that it is compiled for each instruction set.
+/// row r at X + r·L. Every output comes from a block of 2 rows × 4 columns with eight accumulators
+/// in registers, so each loaded vector feeds 4/3 FMAs instead of 1/2 for one dot product at a
+/// time. Near the diagonal (and for an odd last row, paired with itself) the block computes a few
+/// outputs of the upper triangle that are dropped; its columns past the last row read the last
+/// row instead. (The narrower remainder loops this replaces were left scalar by GCC 12: 13 % of
+/// the linearization.) Inlined into every clone of processChunk, compiled for each instruction set.
 __attribute__((always_inline)) inline void syrkLower(int m, int L, const double* X, double* C,
                                                      int ldc) {
-  int r = 0;
-  for (; r + 2 <= m; r += 2) {
-    const double *x0 = X + r * L, *x1 = x0 + L;
-    int c = 0;
-    for (; c + 4 <= r + 2; c += 4) {
-      const double *y0 = X + c * L, *y1 = y0 + L, *y2 = y1 + L, *y3 = y2 + L;
+  const auto row = [&](int k) { return X + static_cast<std::ptrdiff_t>(std::min(k, m - 1)) * L; };
+  for (int r = 0; r < m; r += 2) {
+    const double *x0 = row(r), *x1 = row(r + 1);
+    for (int c = 0; c <= r + 1 && c < m; c += 4) {
+      const double *y0 = row(c), *y1 = row(c + 1), *y2 = row(c + 2), *y3 = row(c + 3);
       double a0 = 0, a1 = 0, a2 = 0, a3 = 0, b0 = 0, b1 = 0, b2 = 0, b3 = 0;
 #pragma omp simd reduction(+ : a0, a1, a2, a3, b0, b1, b2, b3)
       for (int p = 0; p < L; ++p) {
@@ -32,29 +42,10 @@ __attribute__((always_inline)) inline void syrkLower(int m, int L, const double*
       const double a[4] = {a0, a1, a2, a3}, b[4] = {b0, b1, b2, b3};
       for (int k = 0; k < 4; ++k) {
         if (c + k <= r) C[r * ldc + c + k] += a[k];
-        if (c + k <= r + 1) C[(r + 1) * ldc + c + k] += b[k];
+        if (r + 1 < m && c + k <= r + 1) C[(r + 1) * ldc + c + k] += b[k];
       }
-    }
-    for (; c <= r + 1; ++c) {
-      const double* y = X + c * L;
-      double a = 0, b = 0;
-#pragma omp simd reduction(+ : a, b)
-      for (int p = 0; p < L; ++p) {
-        a += x0[p] * y[p];
-        b += x1[p] * y[p];
-      }
-      if (c <= r) C[r * ldc + c] += a;
-      C[(r + 1) * ldc + c] += b;
     }
   }
-  for (; r < m; ++r)
-    for (int c = 0; c <= r; ++c) {
-      const double *x = X + r * L, *y = X + c * L;
-      double a = 0;
-#pragma omp simd reduction(+ : a)
-      for (int p = 0; p < L; ++p) a += x[p] * y[p];
-      C[r * ldc + c] += a;
-    }
 }
 
 }  // namespace
@@ -92,40 +83,50 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
   for (int p = 0; p < kChunk; ++p) hv[p] = gv[p] = 0.0;
   const bool has_min = flt.min_depth_ratio > 0, has_near = flt.near > 0, has_far = flt.far > 0;
 
+  // Loop invariants as local values: read through pointers inside the pixel loop, GCC must assume
+  // that the stores into the rows may change them, and leaves the loop scalar.
+  const double fx = cam.fx, fy = cam.fy, cx = cam.cx, cy = cam.cy;
+  const double wscale = flt.weight_scale, min_ratio = flt.min_depth_ratio, near = flt.near,
+               far = flt.far;
   for (int q = 0; q < acc.E; ++q) {
     const Edge& e = edges[q];
-    const double* R = e.R;
+    double R[9], t[3];
+    for (int k = 0; k < 9; ++k) R[k] = e.R[k];
+    for (int k = 0; k < 3; ++k) t[k] = e.t[k];
+    const float *wx = e.wx + p0, *wy = e.wy + p0, *tx = e.tx + p0, *ty = e.ty + p0;
     // Row k of channel x at A0 + 2k·kChunk, of channel y right after it (A1 = A0 + kChunk), so that
     // both channels of a row form one vector of 2·kChunk lanes for the normal equations.
     double* A0 = acc.rows.data();
     double* A1 = A0 + kChunk;
-    std::size_t used = 0, filtered = 0;
+    // Counted in doubles (exact below 2⁵³): a bool or integer count would make GCC pick a
+    // byte-sized vectorization factor for the loop, which then fails.
+    double used = 0, filtered = 0;
 #pragma omp simd reduction(+ : used, filtered)
     for (int p = 0; p < n; ++p) {
       const double x = xn[p], y = yn[p], dd = d[p];
-      const double w0 = flt.weight_scale * e.wx[p0 + p], w1 = flt.weight_scale * e.wy[p0 + p];
+      const double w0 = wscale * wx[p], w1 = wscale * wy[p];
       // Y = R_ji [x y 1]ᵀ + t_ji d   (conventions §2)
-      const double Y0 = R[0] * x + R[1] * y + R[2] + e.t[0] * dd;
-      const double Y1 = R[3] * x + R[4] * y + R[5] + e.t[1] * dd;
-      const double Y2 = R[6] * x + R[7] * y + R[8] + e.t[2] * dd;
+      const double Y0 = R[0] * x + R[1] * y + R[2] + t[0] * dd;
+      const double Y1 = R[3] * x + R[4] * y + R[5] + t[1] * dd;
+      const double Y2 = R[6] * x + R[7] * y + R[8] + t[2] * dd;
       const bool any = (w0 > 0 || w1 > 0) && dd > 0;
-      const bool keep = Y2 > 0 && (!has_min || Y2 >= flt.min_depth_ratio) &&
-                        (!has_near || (dd * flt.near < 1.0 && Y2 > flt.near * dd)) &&
-                        (!has_far || dd * flt.far > 1.0);
+      const bool keep = Y2 > 0 && (!has_min || Y2 >= min_ratio) &&
+                        (!has_near || (dd * near < 1.0 && Y2 > near * dd)) &&
+                        (!has_far || dd * far > 1.0);
       const bool ok = any && keep;
-      used += ok;
-      filtered += any && !keep;
+      used += ok ? 1.0 : 0.0;
+      filtered += any && !keep ? 1.0 : 0.0;
       const double s0 = ok ? std::sqrt(w0) : 0.0, s1 = ok ? std::sqrt(w1) : 0.0;
       const double iz = ok ? 1.0 / Y2 : 0.0;
       // −∂π/∂Y rows: m0 = [a 0 c], m1 = [0 e f]
-      const double a = -cam.fx * iz, c = cam.fx * Y0 * iz * iz;
-      const double ee = -cam.fy * iz, f = cam.fy * Y1 * iz * iz;
+      const double a = -fx * iz, c = fx * Y0 * iz * iz;
+      const double ee = -fy * iz, f = fy * Y1 * iz * iz;
       // mR_c = m_c R_ji
       const double r00 = a * R[0] + c * R[6], r01 = a * R[1] + c * R[7], r02 = a * R[2] + c * R[8];
       const double r10 = ee * R[3] + f * R[6], r11 = ee * R[4] + f * R[7],
                    r12 = ee * R[5] + f * R[8];
-      const double res0 = e.tx[p0 + p] - (cam.fx * Y0 * iz + cam.cx);
-      const double res1 = e.ty[p0 + p] - (cam.fy * Y1 * iz + cam.cy);
+      const double res0 = tx[p] - (fx * Y0 * iz + cx);
+      const double res1 = ty[p] - (fy * Y1 * iz + cy);
       // J_i = [d·mR, p × mR],  J_j = [−d·m, m × Y],  J_d = m·t  (p = [x y 1])
       constexpr int S = 2 * kChunk;  // stride between rows
       double* o0 = A0 + p;
@@ -142,7 +143,7 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
       o0[10 * S] = s0 * (c * Y0 - a * Y2);
       o0[11 * S] = s0 * (a * Y1);
       o0[12 * S] = s0 * res0;
-      o0[13 * S] = s0 * (a * e.t[0] + c * e.t[2]);
+      o0[13 * S] = s0 * (a * t[0] + c * t[2]);
       double* o1 = A1 + p;
       o1[0 * S] = s1 * dd * r10;
       o1[1 * S] = s1 * dd * r11;
@@ -157,10 +158,10 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
       o1[10 * S] = s1 * (f * Y0);
       o1[11 * S] = s1 * (-ee * Y0);
       o1[12 * S] = s1 * res1;
-      o1[13 * S] = s1 * (ee * e.t[1] + f * e.t[2]);
+      o1[13 * S] = s1 * (ee * t[1] + f * t[2]);
     }
-    acc.factors_used += used;
-    acc.factors_filtered += filtered;
+    acc.factors_used += static_cast<std::size_t>(used);
+    acc.factors_filtered += static_cast<std::size_t>(filtered);
 
     // Lanes past the end of a short last chunk hold stale rows: clear them, so that the
     // reductions below can run over whole rows.
@@ -225,9 +226,11 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
   syrkLower(T6, kChunk, b, acc.W.data(), T6);
 }
 
-// Compiled for AVX2+FMA and for the x86-64 baseline; processChunk picks one at run time. (Not
-// GCC's target_clones: clang 14 ignores it on a function declared earlier, and where it clones,
-// it defines no symbol that other files can call.)
+// Compiled for AVX2+FMA and for the x86-64 baseline; processChunk runs the one it is given
+// (selectedIsa). (Not GCC's target_clones: clang 14 ignores it on a function declared earlier, and
+// where it clones, it defines no symbol that other files can call.) An AVX-512 clone was measured
+// and left out: on a Sapphire-Rapids-class Xeon it was 20 % slower with 512-bit vectors and no
+// faster with 256-bit ones (BENCHMARKS.md, issue 19).
 __attribute__((target("avx2,fma"))) void chunkAvx2Fma(const Camera& cam, const Filter& flt, int p0,
                                                       int n, const double* xn, const double* yn,
                                                       const double* d, const Edge* edges,
@@ -239,20 +242,85 @@ void chunkBaseline(const Camera& cam, const Filter& flt, int p0, int n, const do
   chunkBody(cam, flt, p0, n, xn, yn, d, edges, acc);
 }
 
-bool cpuHasAvx2Fma() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+constexpr Isa kIsas[] = {Isa::Baseline, Isa::Avx2Fma};
+constexpr const char* kEnvIsa = "DBACOV_KERNEL_ISA";
+
+/// The widest supported variant, or the one DBACOV_KERNEL_ISA names (the variable is read once;
+/// a wrong value is an error at every call, so that no run silently uses another kernel).
+Isa defaultIsa() {
+  struct Choice {
+    Isa isa = Isa::Baseline;
+    std::string error;
+  };
+  static const Choice choice = [] {
+    Choice c;
+    const char* v = std::getenv(kEnvIsa);
+    if (!v || !*v) {
+      c.isa = isaSupported(Isa::Avx2Fma) ? Isa::Avx2Fma : Isa::Baseline;
+      return c;
+    }
+    const auto named = std::find_if(std::begin(kIsas), std::end(kIsas),
+                                    [&](Isa isa) { return std::strcmp(v, isaName(isa)) == 0; });
+    if (named == std::end(kIsas))
+      c.error = std::string(kEnvIsa) + "=" + v + ": unknown pixel kernel (baseline or avx2)";
+    else if (!isaSupported(*named))
+      c.error = std::string(kEnvIsa) + "=" + v + ": this CPU does not support that pixel kernel";
+    else
+      c.isa = *named;
+    return c;
+  }();
+  if (!choice.error.empty()) throw std::invalid_argument(choice.error);
+  return choice.isa;
 }
+
+std::atomic<int> g_forced{-1};  // selectIsa(): the forced variant, or -1
 
 }  // namespace
 
-void processChunk(const Camera& cam, const Filter& flt, int p0, int n, const double* xn,
+const char* isaName(Isa isa) {
+  switch (isa) {
+    case Isa::Avx2Fma:
+      return "avx2";
+    case Isa::Baseline:
+      break;
+  }
+  return "baseline";
+}
+
+bool isaSupported(Isa isa) {
+  // __builtin_cpu_supports also checks that the operating system saves the wider registers.
+  __builtin_cpu_init();
+  switch (isa) {
+    case Isa::Avx2Fma:
+      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case Isa::Baseline:
+      break;
+  }
+  return true;
+}
+
+Isa selectedIsa() {
+  const int forced = g_forced.load(std::memory_order_relaxed);
+  return forced >= 0 ? static_cast<Isa>(forced) : defaultIsa();
+}
+
+void selectIsa(std::optional<Isa> isa) {
+  if (isa && !isaSupported(*isa))
+    throw std::invalid_argument(std::string("this CPU does not support the ") + isaName(*isa) +
+                                " pixel kernel");
+  g_forced.store(isa ? static_cast<int>(*isa) : -1, std::memory_order_relaxed);
+}
+
+void processChunk(Isa isa, const Camera& cam, const Filter& flt, int p0, int n, const double* xn,
                   const double* yn, const double* d, const Edge* edges, Accumulator& acc) {
-  static const bool avx2_fma = cpuHasAvx2Fma();
-  if (avx2_fma)
-    chunkAvx2Fma(cam, flt, p0, n, xn, yn, d, edges, acc);
-  else
-    chunkBaseline(cam, flt, p0, n, xn, yn, d, edges, acc);
+  switch (isa) {
+    case Isa::Avx2Fma:
+      chunkAvx2Fma(cam, flt, p0, n, xn, yn, d, edges, acc);
+      return;
+    case Isa::Baseline:
+      break;
+  }
+  chunkBaseline(cam, flt, p0, n, xn, yn, d, edges, acc);
 }
 
 }  // namespace dbacov::kernel

@@ -4,14 +4,18 @@
 // leaving it. Pixels are the SIMD lanes: every per-pixel quantity lives in a short array, invalid
 // lanes (d <= 0, zero weight, filtered, behind the camera) carry zero whitening weight, and the
 // reductions over pixels (normal equations, Schur update) run as dot products over those arrays.
-// The function is compiled twice (AVX2+FMA, Haswell class, and the x86-64 baseline) and picks the
-// variant the CPU supports at its first call (portable to GCC and clang). It uses no Eigen and no
-// heap memory: Eigen's allocation code must not be instantiated with two different alignments in
-// one process.
+// The function is compiled twice (AVX2+FMA, Haswell class, 4 double lanes per register; the
+// x86-64 baseline, 2 lanes) and runs AVX2+FMA where the CPU has it, or the variant named by
+// DBACOV_KERNEL_ISA or selectIsa() (portable to GCC and clang). The variants compute the same sums
+// in different orders: their results agree to rounding (tests/core). It uses no Eigen and no heap
+// memory: Eigen's allocation code must not be instantiated with two different alignments in one
+// process.
 #pragma once
 
 #include <cstddef>
 #include <vector>
+
+#include "dbacov/core/kernel_isa.h"
 
 namespace dbacov::kernel {
 
@@ -57,8 +61,9 @@ struct Accumulator {
 };
 
 /// Accumulates pixels [p0, p0 + n) (n <= kChunk). xn, yn: normalized coordinates of those
-/// pixels; d: their inverse depths.
-void processChunk(const Camera& cam, const Filter& filter, int p0, int n, const double* xn,
+/// pixels; d: their inverse depths. isa: the variant to run (selectedIsa(), resolved once per
+/// linearization; it must be supported).
+void processChunk(Isa isa, const Camera& cam, const Filter& filter, int p0, int n, const double* xn,
                   const double* yn, const double* d, const Edge* edges, Accumulator& acc);
 
 }  // namespace dbacov::kernel

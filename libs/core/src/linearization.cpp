@@ -33,7 +33,7 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
                              const std::vector<double>& xn, const std::vector<double>& yn,
                              int src_slot, int src, std::vector<int> touched,
                              const std::vector<EdgeRef>& edges, bool keep_depth_terms,
-                             const detail::DepthOnlyTerms& depth_only) {
+                             const detail::DepthOnlyTerms& depth_only, kernel::Isa isa) {
   SourceResult res;
   const bool caller_keeps = keep_depth_terms;
   keep_depth_terms |= depth_only.any;  // the correction needs the kernel's depth terms
@@ -64,7 +64,7 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
   for (int p0 = 0; p0 < HW; p0 += kernel::kChunk) {
     const int n = std::min(kernel::kChunk, HW - p0);
     for (int p = 0; p < n; ++p) d[p] = disps[p0 + p];
-    kernel::processChunk(cam, flt, p0, n, &xn[p0], &yn[p0], d, kedges.data(), acc);
+    kernel::processChunk(isa, cam, flt, p0, n, &xn[p0], &yn[p0], d, kedges.data(), acc);
   }
   res.stats.factors_used = acc.factors_used;
   res.stats.factors_filtered = acc.factors_filtered;
@@ -175,11 +175,13 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
     if (!t.edges.empty()) tasks.push_back(std::move(t));
   }
   std::vector<SourceResult> results(tasks.size());
+  // The kernel's instruction set, chosen here: a wrong DBACOV_KERNEL_ISA is the caller's error.
+  const kernel::Isa isa = kernel::selectedIsa();
   parallelFor(tasks.size(), [&](std::size_t i) {
     const Task& t = tasks[i];
     const int src = ne.keyframes[t.slot];
     results[i] = linearizeSource(s, o, K, xn, yn, t.slot, src, t.touched, t.edges, keep_depth_terms,
-                                 detail::depthOnlyTerms(s, o, src, t.stereo));
+                                 detail::depthOnlyTerms(s, o, src, t.stereo), isa);
   });
 
   // Merge in source order, so that the result does not depend on the number of threads.
