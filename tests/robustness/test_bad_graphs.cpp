@@ -153,21 +153,28 @@ INSTANTIATE_TEST_SUITE_P(Corpus, BadGraphTest, ::testing::ValuesIn(corpus()),
 TEST(BadGraphs, ValuesThatOverflowDoublePrecisionGiveANumericalErrorNotNaN) {
   // Found by fuzz_rawlog (regressions/rawlog/principal_point_1e154_overflows_the_covariance):
   // intrinsics far out of range pass validation (finite; a rawlog keeps float64 intrinsics), and
-  // the factor's products overflow. Each case must end in a NumericalError, never in NaN.
+  // the factor's products overflow. Each case must end in a NumericalError, never in NaN. Which
+  // check fires for the principal point depends on the order of the overflowing sums (compiler,
+  // instruction set): the overflow check, or the conditioning check (condition number 4.9e295
+  // with GCC 12 and AVX2 since the kernel sums only J_j's blocks); both name the keyframes.
   struct Case {
     int intrinsic;
     double value;
-    std::string error;
+    std::vector<std::string> accepted;  ///< the message starts with one of these
   };
-  for (const Case& c :
-       std::vector<Case>{{0, 1e153,
-                          "the information matrix has non-finite entries at keyframe 0: the "
-                          "snapshot's values overflow double precision in the DBA factor "
-                          "(intrinsics, poses or inverse depths far out of range)"},
-                         {2, 1e140,
-                          "the covariances of keyframes 4, 5 overflow double precision (the "
-                          "information matrix is numerically singular)"}}) {
-    SCOPED_TRACE(c.error);
+  for (const Case& c : std::vector<Case>{
+           {0,
+            1e153,
+            {"the information matrix has non-finite entries at keyframe 0: the snapshot's values "
+             "overflow double precision in the DBA factor (intrinsics, poses or inverse depths "
+             "far out of range)"}},
+           {2,
+            1e140,
+            {"the covariances of keyframes 4, 5 overflow double precision (the information "
+             "matrix is numerically singular)",
+             "the covariances of keyframes 2, 3, 4, 5 are numerically singular (condition "
+             "number "}}}) {
+    SCOPED_TRACE(c.accepted[0]);
     Snapshot s = testing::tinySnapshot(2, 2).snapshot;
     s.intrinsics[c.intrinsic] = c.value;
     ASSERT_NO_THROW(s.validate());
@@ -177,7 +184,10 @@ TEST(BadGraphs, ValuesThatOverflowDoublePrecisionGiveANumericalErrorNotNaN) {
       const DbaCovariance cov(s, o);
       ADD_FAILURE() << "expected a NumericalError";
     } catch (const NumericalError& e) {
-      EXPECT_EQ(std::string(e.what()), c.error);
+      const std::string what = e.what();
+      EXPECT_TRUE(std::any_of(c.accepted.begin(), c.accepted.end(), [&](const std::string& a) {
+        return what.rfind(a, 0) == 0;
+      })) << what;
     }
   }
 }

@@ -53,7 +53,7 @@ __attribute__((always_inline)) inline void syrkLower(int m, int L, const double*
 void Accumulator::reset(int touched, int edges, bool keep_depth_terms) {
   T = touched;
   E = edges;
-  aug.assign(static_cast<std::size_t>(E) * 13 * 13, 0.0);
+  aug.assign(static_cast<std::size_t>(E) * 7 * 7, 0.0);
   W.assign(static_cast<std::size_t>(36) * T * T, 0.0);
   gS.assign(6 * T, 0.0);
   factors_used = factors_filtered = depths_used = depths_unobservable = 0;
@@ -169,8 +169,9 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
       for (int k = 0; k < kRow; ++k)
         for (int c = 0; c < 2; ++c)
           for (int p = n; p < kChunk; ++p) A0[(2 * k + c) * kChunk + p] = 0.0;
-    // Normal equations of the edge: aug += Σ_lanes a aᵀ over both channels (lower triangle).
-    syrkLower(13, 2 * kChunk, A0, &acc.aug[static_cast<std::size_t>(q) * 169], 13);
+    // Normal equations of the edge: aug += Σ_lanes a aᵀ over both channels (lower triangle) for
+    // a = [J_j r] (rows 6 to 12); J_i = −J_j Ad(T_ji) gives the rest (dba_kernel.h).
+    syrkLower(7, 2 * kChunk, A0 + 6 * 2 * kChunk, &acc.aug[static_cast<std::size_t>(q) * 49], 7);
     // Depth coupling per lane: b_k[src] += J_iᵀ Λ J_d, b_k[tgt] += J_jᵀ Λ J_d, h_k, g_k.
     constexpr int S = 2 * kChunk;
     const double *d0 = A0 + 13 * S, *d1 = A1 + 13 * S;

@@ -45,10 +45,13 @@ struct Edge {
 
 /// Everything one source keyframe accumulates; sized by reset().
 struct Accumulator {
-  int T = 0, E = 0;         ///< touched slots, edges
-  std::vector<double> aug;  ///< E × 13 × 13 per edge, Σ aᵀa of a = √w·[J_i J_j r] (lower)
-  std::vector<double> W;    ///< 6T × 6T, Σ_k b_k b_kᵀ / h_k (lower triangle, row-major)
-  std::vector<double> gS;   ///< 6T, Σ_k b_k g_k / h_k
+  int T = 0, E = 0;  ///< touched slots, edges
+  /// E × 7 × 7 per edge: Σ aᵀa of a = √w·[J_j r] (lower, row-major). The source's blocks follow
+  /// from J_i = −J_j Ad(T_ji), Ad(T) = [R [t]×R; 0 R] (linearization.cpp), which saves 63 of the
+  /// 91 dot products per edge and chunk.
+  std::vector<double> aug;
+  std::vector<double> W;   ///< 6T × 6T, Σ_k b_k b_kᵀ / h_k (lower triangle, row-major)
+  std::vector<double> gS;  ///< 6T, Σ_k b_k g_k / h_k
   std::size_t factors_used = 0, factors_filtered = 0, depths_used = 0, depths_unobservable = 0;
   // Depth terms of the kept depths, when requested (keep_depth_terms).
   bool keep_depths = false;

@@ -74,18 +74,29 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
   // Local system of the touched slots from the per-edge blocks (lower triangles of aug).
   res.Hloc = Eigen::MatrixXd::Zero(6 * T, 6 * T);
   res.g_loc = Eigen::VectorXd::Zero(6 * T);
+  // The kernel sums only [J_j r]ᵀ[J_j r]; J_i = −J_j Ad with Ad = Ad(T_ji) = [R [t]×R; 0 R] (the
+  // source's perturbation moved through T_ji), so H_ii = Adᵀ H_jj Ad, H_ij = −Adᵀ H_jj, g_i = −Adᵀ
+  // g_j.
   for (int q = 0; q < E; ++q) {
     const int t = edges[q].target;
-    Eigen::Matrix<double, 13, 13> A =
-        Eigen::Map<const Eigen::Matrix<double, 13, 13, Eigen::RowMajor>>(&acc.aug[169 * q]);
+    Eigen::Matrix<double, 7, 7> A =
+        Eigen::Map<const Eigen::Matrix<double, 7, 7, Eigen::RowMajor>>(&acc.aug[49 * q]);
     A.triangularView<Eigen::StrictlyUpper>() = A.transpose();  // the kernel fills the lower
-    res.Hloc.block<6, 6>(0, 0) += A.block<6, 6>(0, 0);
-    res.Hloc.block<6, 6>(6 * t, 6 * t) += A.block<6, 6>(6, 6);
-    res.Hloc.block<6, 6>(0, 6 * t) += A.block<6, 6>(0, 6);
-    res.Hloc.block<6, 6>(6 * t, 0) += A.block<6, 6>(6, 0);
-    res.g_loc.segment<6>(0) += A.block<6, 1>(0, 12);
-    res.g_loc.segment<6>(6 * t) += A.block<6, 1>(6, 12);
-    res.stats.chi2 += A(12, 12);
+    const kernel::Edge& k = kedges[q];
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(k.R);
+    Matrix6d Ad = Matrix6d::Zero();
+    Ad.topLeftCorner<3, 3>() = R;
+    Ad.topRightCorner<3, 3>() = hat(Eigen::Vector3d(k.t[0], k.t[1], k.t[2])) * R;
+    Ad.bottomRightCorner<3, 3>() = R;
+    const Matrix6d Hjj = A.topLeftCorner<6, 6>();
+    const Matrix6d Hij = -Ad.transpose() * Hjj;
+    res.Hloc.block<6, 6>(0, 0) -= Hij * Ad;
+    res.Hloc.block<6, 6>(6 * t, 6 * t) += Hjj;
+    res.Hloc.block<6, 6>(0, 6 * t) += Hij;
+    res.Hloc.block<6, 6>(6 * t, 0) += Hij.transpose();
+    res.g_loc.segment<6>(0) -= Ad.transpose() * A.block<6, 1>(0, 6);
+    res.g_loc.segment<6>(6 * t) += A.block<6, 1>(0, 6);
+    res.stats.chi2 += A(6, 6);
   }
   // S = H − Σ b b ᵀ/h and g_S = g − Σ b g/h over the eliminated depths.
   Eigen::MatrixXd W =
