@@ -1,16 +1,15 @@
 // Floating-point operations that linearizeDba's kernel performs on a snapshot (issue 8), counted
-// from the kernel's arithmetic (libs/core/src/dba_kernel.cpp), per lane = pixel of a source
-// keyframe processed against one edge:
-//   whitened rows of both channels (transfer, projection, Jacobians, residual)   124
-//   normal equations of the edge (91 products per channel, multiply + add)         364
-//   depth coupling b_k, h_k, g_k                                                    56
-// and per lane and source: depth elimination 3 + 3·6T, Schur update (6T)(6T+1) for the T slots
-// that the source touches (itself and its edge targets). Masked lanes (invalid pixels) are
-// counted too: the kernel computes them.
+// from the kernel's arithmetic (libs/core/src/dba_kernel.cpp). The kernel works in the edges'
+// coordinates: the source's Jacobian is J_i = −J_j Ad(T_ji), applied once per edge and source
+// outside the kernel (negligible here). Per lane = pixel of a source keyframe against one edge:
+//   transfer, projection, residual and whitened rows [J_j r J_d] of both channels     73
+//   normal equations of the edge, [J_j r] (28 products per channel, multiply + add)   112
+//   depth coupling c_q = J_jᵀ Λ J_d, h_k, g_k                                           26
+// and per lane and source with E edges: depth elimination 3 + 3·6E and the Schur update
+// (6E)(6E+1) in the edges' coordinates. Masked lanes (invalid pixels) are counted too: the
+// kernel computes them. (Until 2026-12-04: 124 + 364 + 56 per edge and the Schur update over the
+// 6T coordinates of the touched slots.)
 #pragma once
-
-#include <algorithm>
-#include <set>
 
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/snapshot.h"
@@ -22,15 +21,11 @@ inline double linearizationFlops(const Snapshot& s) {
   double flops = 0;
   for (int src : s.graphKeyframes()) {
     int edges = 0;
-    std::set<std::int64_t> targets;
     for (int e = 0; e < s.numEdges(); ++e)
-      if (s.ii[e] == src) {
-        ++edges;
-        targets.insert(s.jj[e]);
-      }
+      if (s.ii[e] == src) ++edges;
     if (edges == 0) continue;
-    const double T6 = 6.0 * (1 + targets.size());
-    flops += HW * (edges * (124.0 + 364.0 + 56.0) + 3.0 + 3.0 * T6 + T6 * (T6 + 1.0));
+    const double E6 = 6.0 * edges;
+    flops += HW * (edges * (73.0 + 112.0 + 26.0) + 3.0 + 3.0 * E6 + E6 * (E6 + 1.0));
   }
   return flops;
 }

@@ -54,8 +54,8 @@ void Accumulator::reset(int touched, int edges, bool keep_depth_terms) {
   T = touched;
   E = edges;
   aug.assign(static_cast<std::size_t>(E) * 7 * 7, 0.0);
-  W.assign(static_cast<std::size_t>(36) * T * T, 0.0);
-  gS.assign(6 * T, 0.0);
+  C.assign(static_cast<std::size_t>(36) * E * E, 0.0);
+  gC.assign(6 * E, 0.0);
   factors_used = factors_filtered = depths_used = depths_unobservable = 0;
   keep_depths = keep_depth_terms;
   pixel.clear();
@@ -63,7 +63,7 @@ void Accumulator::reset(int touched, int edges, bool keep_depth_terms) {
   g.clear();
   B.clear();
   rows.assign(static_cast<std::size_t>(2) * kRow * kChunk, 0.0);
-  b.assign(static_cast<std::size_t>(6) * T * kChunk, 0.0);
+  c.assign(static_cast<std::size_t>(6) * E * kChunk, 0.0);
   hv.assign(kChunk, 0.0);
   gv.assign(kChunk, 0.0);
 }
@@ -75,11 +75,10 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
                                                      int n, const double* xn, const double* yn,
                                                      const double* d, const Edge* edges,
                                                      Accumulator& acc) {
-  const int T6 = 6 * acc.T;
-  double* b = acc.b.data();  // b[m * kChunk + p]: entry m of b_k for lane p
+  const int E6 = 6 * acc.E;
+  double* cv = acc.c.data();  // cv[(6q + k) * kChunk + p]: entry k of c_q for lane p
   double* hv = acc.hv.data();
   double* gv = acc.gv.data();
-  for (int i = 0; i < T6 * kChunk; ++i) b[i] = 0.0;
   for (int p = 0; p < kChunk; ++p) hv[p] = gv[p] = 0.0;
   const bool has_min = flt.min_depth_ratio > 0, has_near = flt.near > 0, has_far = flt.far > 0;
 
@@ -121,44 +120,28 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
       // −∂π/∂Y rows: m0 = [a 0 c], m1 = [0 e f]
       const double a = -fx * iz, c = fx * Y0 * iz * iz;
       const double ee = -fy * iz, f = fy * Y1 * iz * iz;
-      // mR_c = m_c R_ji
-      const double r00 = a * R[0] + c * R[6], r01 = a * R[1] + c * R[7], r02 = a * R[2] + c * R[8];
-      const double r10 = ee * R[3] + f * R[6], r11 = ee * R[4] + f * R[7],
-                   r12 = ee * R[5] + f * R[8];
       const double res0 = tx[p] - (fx * Y0 * iz + cx);
       const double res1 = ty[p] - (fy * Y1 * iz + cy);
-      // J_i = [d·mR, p × mR],  J_j = [−d·m, m × Y],  J_d = m·t  (p = [x y 1])
+      // J_j = [−d·m, m × Y],  J_d = m·t; J_i = −J_j Ad(T_ji) is applied per edge, outside.
       constexpr int S = 2 * kChunk;  // stride between rows
       double* o0 = A0 + p;
-      o0[0 * S] = s0 * dd * r00;
-      o0[1 * S] = s0 * dd * r01;
-      o0[2 * S] = s0 * dd * r02;
-      o0[3 * S] = s0 * (y * r02 - r01);
-      o0[4 * S] = s0 * (r00 - x * r02);
-      o0[5 * S] = s0 * (x * r01 - y * r00);
-      o0[6 * S] = -s0 * dd * a;
-      o0[7 * S] = 0.0;
-      o0[8 * S] = -s0 * dd * c;
-      o0[9 * S] = s0 * (-c * Y1);
-      o0[10 * S] = s0 * (c * Y0 - a * Y2);
-      o0[11 * S] = s0 * (a * Y1);
-      o0[12 * S] = s0 * res0;
-      o0[13 * S] = s0 * (a * t[0] + c * t[2]);
+      o0[0 * S] = -s0 * dd * a;
+      o0[1 * S] = 0.0;
+      o0[2 * S] = -s0 * dd * c;
+      o0[3 * S] = s0 * (-c * Y1);
+      o0[4 * S] = s0 * (c * Y0 - a * Y2);
+      o0[5 * S] = s0 * (a * Y1);
+      o0[6 * S] = s0 * res0;
+      o0[7 * S] = s0 * (a * t[0] + c * t[2]);
       double* o1 = A1 + p;
-      o1[0 * S] = s1 * dd * r10;
-      o1[1 * S] = s1 * dd * r11;
-      o1[2 * S] = s1 * dd * r12;
-      o1[3 * S] = s1 * (y * r12 - r11);
-      o1[4 * S] = s1 * (r10 - x * r12);
-      o1[5 * S] = s1 * (x * r11 - y * r10);
-      o1[6 * S] = 0.0;
-      o1[7 * S] = -s1 * dd * ee;
-      o1[8 * S] = -s1 * dd * f;
-      o1[9 * S] = s1 * (ee * Y2 - f * Y1);
-      o1[10 * S] = s1 * (f * Y0);
-      o1[11 * S] = s1 * (-ee * Y0);
-      o1[12 * S] = s1 * res1;
-      o1[13 * S] = s1 * (ee * t[1] + f * t[2]);
+      o1[0 * S] = 0.0;
+      o1[1 * S] = -s1 * dd * ee;
+      o1[2 * S] = -s1 * dd * f;
+      o1[3 * S] = s1 * (ee * Y2 - f * Y1);
+      o1[4 * S] = s1 * (f * Y0);
+      o1[5 * S] = s1 * (-ee * Y0);
+      o1[6 * S] = s1 * res1;
+      o1[7 * S] = s1 * (ee * t[1] + f * t[2]);
     }
     acc.factors_used += static_cast<std::size_t>(used);
     acc.factors_filtered += static_cast<std::size_t>(filtered);
@@ -170,23 +153,18 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
         for (int c = 0; c < 2; ++c)
           for (int p = n; p < kChunk; ++p) A0[(2 * k + c) * kChunk + p] = 0.0;
     // Normal equations of the edge: aug += Σ_lanes a aᵀ over both channels (lower triangle) for
-    // a = [J_j r] (rows 6 to 12); J_i = −J_j Ad(T_ji) gives the rest (dba_kernel.h).
-    syrkLower(7, 2 * kChunk, A0 + 6 * 2 * kChunk, &acc.aug[static_cast<std::size_t>(q) * 49], 7);
-    // Depth coupling per lane: b_k[src] += J_iᵀ Λ J_d, b_k[tgt] += J_jᵀ Λ J_d, h_k, g_k.
+    // a = [J_j r]; J_i = −J_j Ad(T_ji) gives the rest (dba_kernel.h).
+    syrkLower(7, 2 * kChunk, A0, &acc.aug[static_cast<std::size_t>(q) * 49], 7);
+    // Depth coupling per lane: c_q = J_jᵀ Λ J_d (all lanes: the stale ones are cleared), h_k, g_k.
     constexpr int S = 2 * kChunk;
-    const double *d0 = A0 + 13 * S, *d1 = A1 + 13 * S;
+    const double *d0 = A0 + 7 * S, *d1 = A1 + 7 * S;
     for (int k = 0; k < 6; ++k) {
-      double* bs = b + k * kChunk;
-      double* bt = b + (6 * e.target + k) * kChunk;
-      const double *i0 = A0 + k * S, *i1 = A1 + k * S;
-      const double *j0 = A0 + (6 + k) * S, *j1 = A1 + (6 + k) * S;
+      double* cq = cv + (6 * q + k) * kChunk;
+      const double *j0 = A0 + k * S, *j1 = A1 + k * S;
 #pragma omp simd
-      for (int p = 0; p < n; ++p) {
-        bs[p] += i0[p] * d0[p] + i1[p] * d1[p];
-        bt[p] += j0[p] * d0[p] + j1[p] * d1[p];
-      }
+      for (int p = 0; p < kChunk; ++p) cq[p] = j0[p] * d0[p] + j1[p] * d1[p];
     }
-    const double *q0 = A0 + 12 * S, *q1 = A1 + 12 * S;
+    const double *q0 = A0 + 6 * S, *q1 = A1 + 6 * S;
 #pragma omp simd
     for (int p = 0; p < n; ++p) {
       hv[p] += d0[p] * d0[p] + d1[p] * d1[p];
@@ -194,10 +172,10 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
     }
   }
 
-  // Eliminate the observable depths: scale b_k by 1/√h_k (others to zero) and accumulate
-  // gS += b_k g_k / h_k and W += (b_k/√h_k)(b_k/√h_k)ᵀ over the lanes.
+  // Eliminate the observable depths: scale c_k by 1/√h_k (others to zero) and accumulate
+  // gC += c_k g_k / h_k and C += (c_k/√h_k)(c_k/√h_k)ᵀ over the lanes.
   double ratio[kChunk], scale[kChunk];
-  for (int p = n; p < kChunk; ++p) ratio[p] = scale[p] = 0.0;  // b is zero there: rows stay zero
+  for (int p = n; p < kChunk; ++p) ratio[p] = scale[p] = 0.0;  // c is zero there: rows stay zero
   for (int p = 0; p < n; ++p) {
     const bool kept = hv[p] > flt.depth_info_eps;
     scale[p] = kept ? 1.0 / std::sqrt(hv[p]) : 0.0;
@@ -208,23 +186,23 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
         acc.pixel.push_back(p0 + p);
         acc.h.push_back(hv[p]);
         acc.g.push_back(gv[p]);
-        for (int m = 0; m < T6; ++m) acc.B.push_back(b[m * kChunk + p]);
+        for (int m = 0; m < E6; ++m) acc.B.push_back(cv[m * kChunk + p]);
       }
     } else if (hv[p] > 0) {
       ++acc.depths_unobservable;
     }
   }
-  for (int m = 0; m < T6; ++m) {
-    double* bm = b + m * kChunk;
+  for (int m = 0; m < E6; ++m) {
+    double* bm = cv + m * kChunk;
     double sum = 0.0;
 #pragma omp simd reduction(+ : sum)
     for (int p = 0; p < kChunk; ++p) {
       sum += bm[p] * ratio[p];
       bm[p] *= scale[p];
     }
-    acc.gS[m] += sum;
+    acc.gC[m] += sum;
   }
-  syrkLower(T6, kChunk, b, acc.W.data(), T6);
+  syrkLower(E6, kChunk, cv, acc.C.data(), E6);
 }
 
 // Compiled for AVX2+FMA and for the x86-64 baseline; processChunk runs the one it is given

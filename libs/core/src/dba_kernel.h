@@ -20,7 +20,7 @@
 namespace dbacov::kernel {
 
 constexpr int kChunk = 64;  ///< pixels per chunk (lanes)
-constexpr int kRow = 14;    ///< whitened row: J_i (6), J_j (6), r (1), J_d (1)
+constexpr int kRow = 8;     ///< whitened row: J_j (6), r (1), J_d (1)
 
 struct Camera {
   double fx, fy, cx, cy;
@@ -43,22 +43,25 @@ struct Edge {
   const float *wx, *wy, *tx, *ty;  ///< weight and target planes of the edge (H×W)
 };
 
-/// Everything one source keyframe accumulates; sized by reset().
+/// Everything one source keyframe accumulates; sized by reset(). The kernel works in the edges'
+/// coordinates only: the source's Jacobian of each pixel factor is J_i = −J_j Ad(T_ji), Ad(T) =
+/// [R [t]×R; 0 R], so per edge q it forms J_j, r and J_d, and linearization.cpp maps the sums to
+/// the touched slots with Γ (6T × 6E: block (0, q) = −Adᵀ_q, block (target_q, q) = I). A depth's
+/// coupling b_k = Γ c_k with c_k = [J_jᵀ Λ J_d per edge] (6E); the Schur update Σ b bᵀ/h =
+/// Γ (Σ c cᵀ/h) Γᵀ. This saves the source's rows, 63 of the 91 dot products of each edge's normal
+/// equations, and the Schur update's rows and columns of the source.
 struct Accumulator {
-  int T = 0, E = 0;  ///< touched slots, edges
-  /// E × 7 × 7 per edge: Σ aᵀa of a = √w·[J_j r] (lower, row-major). The source's blocks follow
-  /// from J_i = −J_j Ad(T_ji), Ad(T) = [R [t]×R; 0 R] (linearization.cpp), which saves 63 of the
-  /// 91 dot products per edge and chunk.
-  std::vector<double> aug;
-  std::vector<double> W;   ///< 6T × 6T, Σ_k b_k b_kᵀ / h_k (lower triangle, row-major)
-  std::vector<double> gS;  ///< 6T, Σ_k b_k g_k / h_k
+  int T = 0, E = 0;         ///< touched slots, edges
+  std::vector<double> aug;  ///< E × 7 × 7 per edge: Σ aᵀa of a = √w·[J_j r] (lower, row-major)
+  std::vector<double> C;   ///< 6E × 6E, Σ_k c_k c_kᵀ / h_k (lower triangle, row-major)
+  std::vector<double> gC;  ///< 6E, Σ_k c_k g_k / h_k
   std::size_t factors_used = 0, factors_filtered = 0, depths_used = 0, depths_unobservable = 0;
   // Depth terms of the kept depths, when requested (keep_depth_terms).
   bool keep_depths = false;
   std::vector<int> pixel;
-  std::vector<double> h, g, B;  ///< B: 6T values per kept depth, appended
+  std::vector<double> h, g, B;  ///< B: c_k (6E values) per kept depth, appended
   // Scratch reused by every chunk.
-  std::vector<double> rows, b, hv, gv;
+  std::vector<double> rows, c, hv, gv;
 
   void reset(int touched, int edges, bool keep_depth_terms);
 };

@@ -74,9 +74,11 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
   // Local system of the touched slots from the per-edge blocks (lower triangles of aug).
   res.Hloc = Eigen::MatrixXd::Zero(6 * T, 6 * T);
   res.g_loc = Eigen::VectorXd::Zero(6 * T);
-  // The kernel sums only [J_j r]ᵀ[J_j r]; J_i = −J_j Ad with Ad = Ad(T_ji) = [R [t]×R; 0 R] (the
-  // source's perturbation moved through T_ji), so H_ii = Adᵀ H_jj Ad, H_ij = −Adᵀ H_jj, g_i = −Adᵀ
-  // g_j.
+  // The kernel works in the edges' coordinates (dba_kernel.h): J_i = −J_j Ad_q with
+  // Ad_q = Ad(T_ji) = [R [t]×R; 0 R] (the source's perturbation moved through T_ji), so
+  // H_ii = Adᵀ H_jj Ad, H_ij = −Adᵀ H_jj, g_i = −Adᵀ g_j per edge, and Γ (6T × 6E) maps the depth
+  // terms to the touched slots: block (0, q) = −Ad_qᵀ, block (target_q, q) = I.
+  Eigen::MatrixXd Gamma = Eigen::MatrixXd::Zero(6 * T, 6 * E);
   for (int q = 0; q < E; ++q) {
     const int t = edges[q].target;
     Eigen::Matrix<double, 7, 7> A =
@@ -97,17 +99,29 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
     res.g_loc.segment<6>(0) -= Ad.transpose() * A.block<6, 1>(0, 6);
     res.g_loc.segment<6>(6 * t) += A.block<6, 1>(0, 6);
     res.stats.chi2 += A(6, 6);
+    Gamma.block<6, 6>(0, 6 * q) = -Ad.transpose();
+    Gamma.block<6, 6>(6 * t, 6 * q).setIdentity();
   }
-  // S = H − Σ b b ᵀ/h and g_S = g − Σ b g/h over the eliminated depths.
-  Eigen::MatrixXd W =
+  // S = H − Γ C Γᵀ and g_S = g − Γ g_C over the eliminated depths.
+  Eigen::MatrixXd C =
       Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-          acc.W.data(), 6 * T, 6 * T);
-  W.triangularView<Eigen::StrictlyUpper>() = W.transpose();
-  res.Sloc = res.Hloc - W;
-  res.gS_loc = res.g_loc - Eigen::Map<const Eigen::VectorXd>(acc.gS.data(), 6 * T);
+          acc.C.data(), 6 * E, 6 * E);
+  C.triangularView<Eigen::StrictlyUpper>() = C.transpose();
+  const Eigen::MatrixXd GC = Gamma * C;
+  res.Sloc = res.Hloc - GC * Gamma.transpose();
+  res.Sloc = 0.5 * (res.Sloc + res.Sloc.transpose()).eval();  // exactly symmetric, as before
+  res.gS_loc = res.g_loc - Gamma * Eigen::Map<const Eigen::VectorXd>(acc.gC.data(), 6 * E);
+  // The kept depths' couplings b_k = Γ c_k (6T each), as the depth-only terms and callers use them.
+  std::vector<double> B;
+  if (!acc.pixel.empty()) {
+    B.resize(static_cast<std::size_t>(6) * T * acc.pixel.size());
+    Eigen::Map<Eigen::MatrixXd>(B.data(), 6 * T, static_cast<Eigen::Index>(acc.pixel.size())) =
+        Gamma * Eigen::Map<const Eigen::MatrixXd>(acc.B.data(), 6 * E,
+                                                  static_cast<Eigen::Index>(acc.pixel.size()));
+  }
   if (depth_only.any) {  // RGB-D sensor / stereo factors on the depths (depth_only_factors.h)
     res.stats.depths_used += detail::applyDepthOnlyTerms(
-        depth_only, o.depth_info_eps, 6 * T, acc.pixel, acc.h, acc.g, acc.B, res.Sloc, res.gS_loc);
+        depth_only, o.depth_info_eps, 6 * T, acc.pixel, acc.h, acc.g, B, res.Sloc, res.gS_loc);
   }
   res.stats.factors_used += depth_only.factors_used;
   res.stats.factors_filtered += depth_only.factors_filtered;
@@ -118,7 +132,7 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
     res.depth.pixel = acc.pixel;
     res.depth.h = acc.h;
     res.depth.g = acc.g;
-    res.depth.B = Eigen::Map<const Eigen::MatrixXd>(acc.B.data(), 6 * T, acc.pixel.size());
+    res.depth.B = Eigen::Map<const Eigen::MatrixXd>(B.data(), 6 * T, acc.pixel.size());
   }
   res.touched = std::move(touched);
   return res;
