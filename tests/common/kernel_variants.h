@@ -1,6 +1,7 @@
 // Runs a test body once per pixel-kernel variant this CPU supports (kernel_isa.h).
 #pragma once
 
+#include <stdexcept>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -25,9 +26,13 @@ template <class Body>
 int forEachKernelIsa(Body body) {
   int ran = 0;
   for (kernel::Isa isa : {kernel::Isa::Baseline, kernel::Isa::Avx2Fma}) {
-    if (!kernel::isaSupported(isa)) continue;
+    if (!kernel::isaSupported(isa)) {  // a variant this CPU cannot run is refused, not run
+      EXPECT_THROW(kernel::selectIsa(isa), std::invalid_argument) << kernel::isaName(isa);
+      continue;
+    }
     SCOPED_TRACE(std::string("pixel kernel ") + kernel::isaName(isa));
     const ForcedKernelIsa forced(isa);
+    EXPECT_EQ(kernel::selectedIsa(), isa);  // the body really runs this variant
     body(isa);
     ++ran;
   }

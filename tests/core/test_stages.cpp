@@ -26,51 +26,67 @@ DbaOptions hardGauge() {
 
 // Every variant of the pixel kernel this CPU runs (kernel_isa.h: AVX2+FMA, the x86-64 baseline)
 // against the same dense reference; the 8 × 10 grid ends in a short chunk of 16 lanes.
+/// The snapshot with edge e appended once more (its own flow and weights again): two edges of one
+/// source into one target, whose terms the kernel keeps apart and linearizeSource adds on one slot.
+Snapshot withEdgeTwice(Snapshot s, int e) {
+  const std::size_t plane = 2 * s.pixelsPerFrame(), at = static_cast<std::size_t>(e) * plane;
+  s.ii.push_back(s.ii[e]);
+  s.jj.push_back(s.jj[e]);
+  const std::vector<float> t(s.target.begin() + at, s.target.begin() + at + plane);
+  const std::vector<float> w(s.weight.begin() + at, s.weight.begin() + at + plane);
+  s.target.insert(s.target.end(), t.begin(), t.end());
+  s.weight.insert(s.weight.end(), w.begin(), w.end());
+  return s;
+}
+
 TEST(LinearizationStage, NormalEquationsEqualTheDenseJacobianProduct) {
-  testing::forEachKernelIsa([](kernel::Isa) {
-    const sim::SyntheticSnapshot syn = testing::tinySnapshot(11, 0);
-    const Snapshot& s = syn.snapshot;
-    const DbaOptions o = hardGauge();
-    const DbaNormalEquations ne = linearizeDba(s, o, true);
-    const testing::DenseFullSystem ref = testing::denseFullSystem(s, o);
-    const int np = ref.numPoseDims(), nd = static_cast<int>(ref.depth_vars.size());
-    ASSERT_EQ(ne.keyframes, ref.keyframes);
-    ASSERT_GT(nd, 0);
+  const sim::SyntheticSnapshot syn = testing::tinySnapshot(11, 0);
+  for (const bool twice : {false, true})
+    testing::forEachKernelIsa([&](kernel::Isa) {
+      SCOPED_TRACE(twice ? "edge 0 twice" : "every edge once");
+      const Snapshot s = twice ? withEdgeTwice(syn.snapshot, 0) : syn.snapshot;
+      ASSERT_NO_THROW(s.validate());
+      const DbaOptions o = hardGauge();
+      const DbaNormalEquations ne = linearizeDba(s, o, true);
+      const testing::DenseFullSystem ref = testing::denseFullSystem(s, o);
+      const int np = ref.numPoseDims(), nd = static_cast<int>(ref.depth_vars.size());
+      ASSERT_EQ(ne.keyframes, ref.keyframes);
+      ASSERT_GT(nd, 0);
 
-    const Eigen::MatrixXd Hpp = ref.H.topLeftCorner(np, np);
-    const Eigen::MatrixXd Hpd = ref.H.topRightCorner(np, nd);
-    const Eigen::VectorXd hdd = ref.H.bottomRightCorner(nd, nd).diagonal();
-    // Hdd is diagonal: each depth is a scalar shared only by the factors of its pixel.
-    EXPECT_LT((ref.H.bottomRightCorner(nd, nd) - Eigen::MatrixXd(hdd.asDiagonal())).norm(),
-              1e-12 * hdd.norm());
-    EXPECT_LT(relativeError(ne.Hpp.toDense(), Hpp), 1e-10);
-    EXPECT_LT(relativeError(ne.g_p, ref.g.head(np)), 1e-10);
+      const Eigen::MatrixXd Hpp = ref.H.topLeftCorner(np, np);
+      const Eigen::MatrixXd Hpd = ref.H.topRightCorner(np, nd);
+      const Eigen::VectorXd hdd = ref.H.bottomRightCorner(nd, nd).diagonal();
+      // Hdd is diagonal: each depth is a scalar shared only by the factors of its pixel.
+      EXPECT_LT((ref.H.bottomRightCorner(nd, nd) - Eigen::MatrixXd(hdd.asDiagonal())).norm(),
+                1e-12 * hdd.norm());
+      EXPECT_LT(relativeError(ne.Hpp.toDense(), Hpp), 1e-10);
+      EXPECT_LT(relativeError(ne.g_p, ref.g.head(np)), 1e-10);
 
-    // S = Hpp − Hpd Hdd⁻¹ Hdp and g_S = g_p − Hpd Hdd⁻¹ g_d, formed densely.
-    const Eigen::VectorXd inv_h = hdd.cwiseInverse();
-    const Eigen::MatrixXd S = Hpp - Hpd * inv_h.asDiagonal() * Hpd.transpose();
-    const Eigen::VectorXd gS = ref.g.head(np) - Hpd * inv_h.cwiseProduct(ref.g.tail(nd));
-    EXPECT_LT(relativeError(ne.S.toDense(), S), 1e-9);
-    EXPECT_LT(relativeError(ne.g_S, gS), 1e-9);
+      // S = Hpp − Hpd Hdd⁻¹ Hdp and g_S = g_p − Hpd Hdd⁻¹ g_d, formed densely.
+      const Eigen::VectorXd inv_h = hdd.cwiseInverse();
+      const Eigen::MatrixXd S = Hpp - Hpd * inv_h.asDiagonal() * Hpd.transpose();
+      const Eigen::VectorXd gS = ref.g.head(np) - Hpd * inv_h.cwiseProduct(ref.g.tail(nd));
+      EXPECT_LT(relativeError(ne.S.toDense(), S), 1e-9);
+      EXPECT_LT(relativeError(ne.g_S, gS), 1e-9);
 
-    // The kept depth terms: h_k and the columns b_k of Hpd on the touched slots.
-    std::size_t kept = 0;
-    for (const DepthTerms& dt : ne.depths) {
-      const int source = ne.keyframes[dt.source_slot];
-      for (std::size_t c = 0; c < dt.pixel.size(); ++c, ++kept) {
-        int var = -1;
-        for (int v = 0; v < nd; ++v)
-          if (ref.depth_vars[v] == std::make_pair(source, dt.pixel[c])) var = v;
-        ASSERT_GE(var, 0);
-        EXPECT_NEAR(dt.h[c], hdd[var], 1e-10 * hdd[var]);
-        for (std::size_t t = 0; t < dt.touched.size(); ++t)
-          EXPECT_LT((dt.B.block(6 * t, c, 6, 1) - Hpd.block(6 * dt.touched[t], var, 6, 1)).norm(),
-                    1e-9 * (1 + Hpd.col(var).norm()));
+      // The kept depth terms: h_k and the columns b_k of Hpd on the touched slots.
+      std::size_t kept = 0;
+      for (const DepthTerms& dt : ne.depths) {
+        const int source = ne.keyframes[dt.source_slot];
+        for (std::size_t c = 0; c < dt.pixel.size(); ++c, ++kept) {
+          int var = -1;
+          for (int v = 0; v < nd; ++v)
+            if (ref.depth_vars[v] == std::make_pair(source, dt.pixel[c])) var = v;
+          ASSERT_GE(var, 0);
+          EXPECT_NEAR(dt.h[c], hdd[var], 1e-10 * hdd[var]);
+          for (std::size_t t = 0; t < dt.touched.size(); ++t)
+            EXPECT_LT((dt.B.block(6 * t, c, 6, 1) - Hpd.block(6 * dt.touched[t], var, 6, 1)).norm(),
+                      1e-9 * (1 + Hpd.col(var).norm()));
+        }
       }
-    }
-    EXPECT_EQ(kept, static_cast<std::size_t>(nd));
-    EXPECT_EQ(ne.stats.depths_used, static_cast<std::size_t>(nd));
-  });
+      EXPECT_EQ(kept, static_cast<std::size_t>(nd));
+      EXPECT_EQ(ne.stats.depths_used, static_cast<std::size_t>(nd));
+    });
 }
 
 TEST(LinearizationStage, AWrongJacobianIsCaught) {

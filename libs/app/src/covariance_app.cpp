@@ -324,6 +324,7 @@ int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
   DbaOptions engine;
   try {
     engine = opt.engine.resolve();
+    checkEngineEnvironment();  // DBACOV_KERNEL_ISA
     opt.scene.validate();
     if (!opt.anyOutput()) throw std::invalid_argument("no output requested");
     detail::SelfCalibrationRun check(opt.self_calibration);

@@ -10,6 +10,7 @@
 #include "dbacov/app/evaluation_report.h"
 #include "dbacov/app/progress.h"
 #include "dbacov/app/scenario_options.h"
+#include "dbacov/core/threads.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/monte_carlo.h"
 #include "path_checks.h"
@@ -320,6 +321,7 @@ int runEvaluate(const EvaluateOptions& o, std::ostream& out, std::ostream& err) 
   std::optional<sim::ScenarioConfig> config;
   try {
     checkUsage(o);
+    checkEngineEnvironment();  // DBACOV_KERNEL_ISA
     if (o.monte_carlo > 0) config = o.scenario.resolve();
     if (config && config->gauge_hold == sim::GaugeHold::Estimate)
       throw std::invalid_argument(sim::kMonteCarloNeedsTruthGauge);

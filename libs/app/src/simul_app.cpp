@@ -11,6 +11,7 @@
 #include "dbacov/app/csv_format.h"
 #include "dbacov/app/progress.h"
 #include "dbacov/app/scenario_options.h"
+#include "dbacov/core/threads.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/mrpt/bridge.h"
@@ -78,6 +79,7 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
     plan.output(out_dir + "/groundtruth.tum", "-o (groundtruth.tum)");
     plan.output(out_dir + "/scenario.json", "-o (scenario.json)");
     plan.check();
+    checkEngineEnvironment();  // DBACOV_KERNEL_ISA
     config = scenario.resolve();
     if (no_npz && rawlog_path.empty())
       throw std::invalid_argument("--no-npz leaves no snapshot output: add --rawlog");

@@ -92,7 +92,8 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
     Ad.bottomRightCorner<3, 3>() = R;
     const Matrix6d Hjj = A.topLeftCorner<6, 6>();
     const Matrix6d Hij = -Ad.transpose() * Hjj;
-    res.Hloc.block<6, 6>(0, 0) -= Hij * Ad;
+    const Matrix6d Hii = -Hij * Ad;
+    res.Hloc.block<6, 6>(0, 0) += 0.5 * (Hii + Hii.transpose());  // symmetric to the bit
     res.Hloc.block<6, 6>(6 * t, 6 * t) += Hjj;
     res.Hloc.block<6, 6>(0, 6 * t) += Hij;
     res.Hloc.block<6, 6>(6 * t, 0) += Hij.transpose();
@@ -109,20 +110,25 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
   C.triangularView<Eigen::StrictlyUpper>() = C.transpose();
   const Eigen::MatrixXd GC = Gamma * C;
   res.Sloc = res.Hloc - GC * Gamma.transpose();
-  res.Sloc = 0.5 * (res.Sloc + res.Sloc.transpose()).eval();  // exactly symmetric, as before
   res.gS_loc = res.g_loc - Gamma * Eigen::Map<const Eigen::VectorXd>(acc.gC.data(), 6 * E);
-  // The kept depths' couplings b_k = Γ c_k (6T each), as the depth-only terms and callers use them.
-  std::vector<double> B;
+  // The kept depths' couplings b_k = Γ c_k (6T each), as the depth-only terms and callers use them:
+  // the source's rows −Σ_q Ad_qᵀ c_q, each target's rows the sum of its edges' c_q.
+  thread_local std::vector<double> B;  // reused, as the accumulator
+  B.assign(static_cast<std::size_t>(6) * T * acc.pixel.size(), 0.0);
   if (!acc.pixel.empty()) {
-    B.resize(static_cast<std::size_t>(6) * T * acc.pixel.size());
-    Eigen::Map<Eigen::MatrixXd>(B.data(), 6 * T, static_cast<Eigen::Index>(acc.pixel.size())) =
-        Gamma * Eigen::Map<const Eigen::MatrixXd>(acc.B.data(), 6 * E,
-                                                  static_cast<Eigen::Index>(acc.pixel.size()));
+    const auto np = static_cast<Eigen::Index>(acc.pixel.size());
+    Eigen::Map<Eigen::MatrixXd> Bt(B.data(), 6 * T, np);
+    const Eigen::Map<const Eigen::MatrixXd> Bc(acc.B.data(), 6 * E, np);
+    for (int q = 0; q < E; ++q) {
+      Bt.middleRows<6>(0).noalias() += Gamma.block<6, 6>(0, 6 * q) * Bc.middleRows<6>(6 * q);
+      Bt.middleRows<6>(6 * edges[q].target) += Bc.middleRows<6>(6 * q);
+    }
   }
   if (depth_only.any) {  // RGB-D sensor / stereo factors on the depths (depth_only_factors.h)
     res.stats.depths_used += detail::applyDepthOnlyTerms(
         depth_only, o.depth_info_eps, 6 * T, acc.pixel, acc.h, acc.g, B, res.Sloc, res.gS_loc);
   }
+  res.Sloc = 0.5 * (res.Sloc + res.Sloc.transpose()).eval();  // symmetric to the bit
   res.stats.factors_used += depth_only.factors_used;
   res.stats.factors_filtered += depth_only.factors_filtered;
   res.stats.chi2 += depth_only.chi2;

@@ -1,5 +1,8 @@
 #include "dbacov/core/parallel.h"
 
+#include "dbacov/core/kernel_isa.h"
+#include "dbacov/core/threads.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
@@ -28,6 +31,10 @@ ThreadLimit::ThreadLimit(std::size_t threads) : impl_(std::make_unique<Impl>()) 
 }
 
 ThreadLimit::~ThreadLimit() = default;
+
+void checkEngineEnvironment() {
+  static_cast<void>(kernel::selectedIsa());
+}
 
 std::size_t currentThreadLimit() {
   return tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);

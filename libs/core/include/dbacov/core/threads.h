@@ -1,5 +1,6 @@
 // How many threads the engine's parallel loops use (oneTBB underneath, private to dbacov_core).
 // The number is a process-wide limit that a ThreadLimit sets while it lives (the apps' --threads).
+// Also the check of the engine's other process-wide setting, DBACOV_KERNEL_ISA.
 #pragma once
 
 #include <cstddef>
@@ -22,5 +23,10 @@ class ThreadLimit {
 
 /// Threads the parallel regions may use now.
 std::size_t currentThreadLimit();
+
+/// Throws std::invalid_argument, naming the variable, when DBACOV_KERNEL_ISA names no variant of
+/// the pixel kernel that this CPU runs (README "Performance"). Every linearization would throw
+/// the same; the apps call this with their other usage checks, before reading anything.
+void checkEngineEnvironment();
 
 }  // namespace dbacov
