@@ -102,6 +102,22 @@ def test_errors_are_python_exceptions_with_the_cli_messages(shared_path, tmp_pat
         dbacov.Covariance(dbacov.Snapshot(**a, t0=2), gauge="droid")
 
 
+def test_a_bad_kernel_variant_in_the_environment_is_a_value_error(shared_path):
+    # DBACOV_KERNEL_ISA is read once per process (README "Performance"): a fresh interpreter.
+    import subprocess
+    import sys
+    code = ("import dbacov, sys\n"
+            "try:\n"
+            "    dbacov.Covariance(sys.argv[1])\n"
+            "except ValueError as e:\n"
+            "    print('ValueError:', e)\n")
+    for isa, expected in (("avx9", "ValueError: DBACOV_KERNEL_ISA=avx9: unknown pixel kernel"),
+                          ("baseline", "")):
+        r = subprocess.run([sys.executable, "-c", code, shared_path], capture_output=True,
+                           text=True, env=dict(os.environ, DBACOV_KERNEL_ISA=isa), check=True)
+        assert r.stdout.startswith(expected) and (expected or not r.stdout), r.stdout + r.stderr
+
+
 def test_gil_is_released_during_the_computation(shared_path):
     snap = dbacov.load(shared_path)
     results = [None] * 4
