@@ -24,8 +24,6 @@ DbaOptions hardGauge() {
   return testing::gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0);
 }
 
-// Every variant of the pixel kernel this CPU runs (kernel_isa.h: AVX2+FMA, the x86-64 baseline)
-// against the same dense reference; the 8 × 10 grid ends in a short chunk of 16 lanes.
 /// The snapshot with edge e appended once more (its own flow and weights again): two edges of one
 /// source into one target, whose terms the kernel keeps apart and linearizeSource adds on one slot.
 Snapshot withEdgeTwice(Snapshot s, int e) {
@@ -39,6 +37,8 @@ Snapshot withEdgeTwice(Snapshot s, int e) {
   return s;
 }
 
+// Every variant of the pixel kernel this CPU runs (kernel_isa.h: AVX2+FMA, the x86-64 baseline)
+// against the same dense reference; the 8 × 10 grid ends in a short chunk of 16 lanes.
 TEST(LinearizationStage, NormalEquationsEqualTheDenseJacobianProduct) {
   const sim::SyntheticSnapshot syn = testing::tinySnapshot(11, 0);
   for (const bool twice : {false, true})

@@ -50,8 +50,7 @@ __attribute__((always_inline)) inline void syrkLower(int m, int L, const double*
 
 }  // namespace
 
-void Accumulator::reset(int touched, int edges, bool keep_depth_terms) {
-  T = touched;
+void Accumulator::reset(int edges, bool keep_depth_terms) {
   E = edges;
   aug.assign(static_cast<std::size_t>(E) * 7 * 7, 0.0);
   C.assign(static_cast<std::size_t>(36) * E * E, 0.0);

@@ -37,9 +37,8 @@ struct Filter {
 };
 
 struct Edge {
-  double R[9];  ///< R_ji, row-major
-  double t[3];  ///< t_ji
-  int target;   ///< position of the target keyframe among the touched slots (>= 1)
+  double R[9];                     ///< R_ji, row-major
+  double t[3];                     ///< t_ji
   const float *wx, *wy, *tx, *ty;  ///< weight and target planes of the edge (H×W)
 };
 
@@ -51,7 +50,7 @@ struct Edge {
 /// Γ (Σ c cᵀ/h) Γᵀ. This saves the source's rows, 63 of the 91 dot products of each edge's normal
 /// equations, and the Schur update's rows and columns of the source.
 struct Accumulator {
-  int T = 0, E = 0;         ///< touched slots, edges
+  int E = 0;                ///< edges
   std::vector<double> aug;  ///< E × 7 × 7 per edge: Σ aᵀa of a = √w·[J_j r] (lower, row-major)
   std::vector<double> C;   ///< 6E × 6E, Σ_k c_k c_kᵀ / h_k (lower triangle, row-major)
   std::vector<double> gC;  ///< 6E, Σ_k c_k g_k / h_k
@@ -63,7 +62,7 @@ struct Accumulator {
   // Scratch reused by every chunk.
   std::vector<double> rows, c, hv, gv;
 
-  void reset(int touched, int edges, bool keep_depth_terms);
+  void reset(int edges, bool keep_depth_terms);
 };
 
 /// Accumulates pixels [p0, p0 + n) (n <= kChunk). xn, yn: normalized coordinates of those

@@ -5,6 +5,7 @@
 #include "dba_kernel.h"
 #include "dbacov/core/dba_factor.h"
 #include "dbacov/core/parallel.h"
+#include "dbacov/core/se3.h"
 #include "depth_only_factors.h"
 
 namespace dbacov {
@@ -51,14 +52,13 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
     kernel::Edge& k = kedges[q];
     Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(k.R) = edges[q].R_ji;
     Eigen::Map<Eigen::Vector3d>(k.t) = edges[q].t_ji;
-    k.target = edges[q].target;
     k.wx = s.weightPlane(edges[q].edge, 0);
     k.wy = s.weightPlane(edges[q].edge, 1);
     k.tx = s.targetPlane(edges[q].edge, 0);
     k.ty = s.targetPlane(edges[q].edge, 1);
   }
   thread_local kernel::Accumulator acc;  // reused: no allocation per snapshot in steady state
-  acc.reset(T, E, keep_depth_terms);
+  acc.reset(E, keep_depth_terms);
   double d[kernel::kChunk];
   const float* disps = &s.disps[static_cast<std::size_t>(src) * HW];
   for (int p0 = 0; p0 < HW; p0 += kernel::kChunk) {
@@ -84,12 +84,10 @@ SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const Pinho
     Eigen::Matrix<double, 7, 7> A =
         Eigen::Map<const Eigen::Matrix<double, 7, 7, Eigen::RowMajor>>(&acc.aug[49 * q]);
     A.triangularView<Eigen::StrictlyUpper>() = A.transpose();  // the kernel fills the lower
-    const kernel::Edge& k = kedges[q];
-    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(k.R);
-    Matrix6d Ad = Matrix6d::Zero();
-    Ad.topLeftCorner<3, 3>() = R;
-    Ad.topRightCorner<3, 3>() = hat(Eigen::Vector3d(k.t[0], k.t[1], k.t[2])) * R;
-    Ad.bottomRightCorner<3, 3>() = R;
+    Eigen::Isometry3d T_ji = Eigen::Isometry3d::Identity();
+    T_ji.linear() = edges[q].R_ji;
+    T_ji.translation() = edges[q].t_ji;
+    const Matrix6d Ad = adjoint(T_ji);
     const Matrix6d Hjj = A.topLeftCorner<6, 6>();
     const Matrix6d Hij = -Ad.transpose() * Hjj;
     const Matrix6d Hii = -Hij * Ad;
