@@ -298,6 +298,9 @@ TEST(CovarianceApp, KernelVariantFromTheEnvironment) {
       << bad.out;
   EXPECT_FALSE(contains(bad.out, "snapshot")) << bad.out;
   EXPECT_FALSE(std::filesystem::exists(dir.file("bad.csv")));
+  const AppResult help =
+      testing::runCommand(std::string(DBACOV_BINARY_DIR) + "/bin/dba-covariance --help");
+  EXPECT_TRUE(contains(help.out, "DBACOV_KERNEL_ISA=baseline|avx2")) << help.out;
   const AppResult base =
       testing::runCommand("DBACOV_KERNEL_ISA=baseline " + app + dir.file("base.csv"));
   EXPECT_EQ(base.code, 0) << base.out;

@@ -59,6 +59,9 @@ with --fail-fast the first failure stops the run and no output is written at all
 stay as they were). The last line on standard error sums up: "N snapshots read, P processed,
 F failed: K invalid input (files...), K numerical (file: reason), K output (...)", and
 "; K outputs not written" when an output file could not be committed at the end.
+Environment: DBACOV_PROGRESS_PERIOD=SECONDS, the period of the progress lines on a non-terminal
+(default 5; 0 = every snapshot); DBACOV_KERNEL_ISA=baseline|avx2 forces the pixel kernel's
+variant (default: avx2 where the CPU has it; another value is bad usage).
 Exit status: 0 success, 1 when any snapshot or output failed, 2 on bad usage.)TXT";
 
 using Sinks = std::vector<std::unique_ptr<OutputSink>>;
