@@ -2,9 +2,12 @@
 // small graph (conventions §4): the linearization and Schur complement against the dense Jacobian
 // product JᵀΛJ of every factor row (dense_reference.h), and the gauge against the dense basis P of
 // the reference applied to the same S. The whole chain (through CHOLMOD) is test_covariance.cpp's.
+#include <cstdlib>
+
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
+#include "dbacov/core/dot_products.h"
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/kernel_isa.h"
 #include "dbacov/core/linearization.h"
@@ -87,6 +90,39 @@ TEST(LinearizationStage, NormalEquationsEqualTheDenseJacobianProduct) {
       EXPECT_EQ(kept, static_cast<std::size_t>(nd));
       EXPECT_EQ(ne.stats.depths_used, static_cast<std::size_t>(nd));
     });
+}
+
+// The self-calibration's products over pixels (dot_products.h) against Eigen's, in every variant:
+// sizes below, at and past the 2 × 4 block and the 4-wide vectors (odd rows, remainders), rows
+// with padding between them, += into C, and with lower only the lower triangle written (the
+// sentinels elsewhere must survive).
+TEST(DotProducts, EqualTheDenseProductInEveryVariant) {
+  std::srand(7);
+  testing::forEachKernelIsa([&](kernel::Isa) {
+    for (const int m : {1, 2, 3, 5, 8, 13})
+      for (const int n : {1, 4, 6, 7, 13})
+        for (const int K : {1, 3, 4, 9, 42})
+          for (const bool lower : {false, true}) {
+            if (lower && m != n) continue;
+            const int lda = K + 3, ldb = K + 1, ldc = n + 2;
+            const Eigen::MatrixXd A = Eigen::MatrixXd::Random(m, lda);
+            const Eigen::MatrixXd B = lower ? A : Eigen::MatrixXd::Random(n, ldb);
+            const int ldB = lower ? lda : ldb;
+            using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+            const RowMajor Ar = A, Br = B;
+            RowMajor C = RowMajor::Constant(m, ldc, 0.5);
+            kernel::gemmNT(m, n, K, Ar.data(), lda, Br.data(), ldB, C.data(), ldc, lower);
+            const Eigen::MatrixXd want = A.leftCols(K) * B.leftCols(K).transpose();
+            for (int r = 0; r < m; ++r)
+              for (int c = 0; c < ldc; ++c) {
+                const bool written = c < n && (!lower || c <= r);
+                const double expect = written ? 0.5 + want(r, c) : 0.5;
+                ASSERT_NEAR(C(r, c), expect, 1e-13 * (1 + std::abs(expect)))
+                    << m << " x " << n << " x " << K << (lower ? " lower" : "") << " at (" << r
+                    << ", " << c << ")";
+              }
+          }
+  });
 }
 
 TEST(LinearizationStage, AWrongJacobianIsCaught) {

@@ -1,5 +1,7 @@
 #include "dba_kernel.h"
 
+#include "dbacov/core/dot_products.h"
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -13,23 +15,29 @@
 namespace dbacov::kernel {
 namespace {
 
-/// C += X Xᵀ on the lower triangle (C row-major with leading dimension ldc) for the m rows of X,
-/// row r at X + r·L. Every output comes from a block of 2 rows × 4 columns with eight accumulators
-/// in registers, so each loaded vector feeds 4/3 FMAs instead of 1/2 for one dot product at a
-/// time. Near the diagonal (and for an odd last row, paired with itself) the block computes a few
-/// outputs of the upper triangle that are dropped; its columns past the last row read the last
-/// row instead. (The narrower remainder loops this replaces were left scalar by GCC 12: 13 % of
-/// the linearization.) Inlined into every clone of processChunk, compiled for each instruction set.
-__attribute__((always_inline)) inline void syrkLower(int m, int L, const double* X, double* C,
-                                                     int ldc) {
-  const auto row = [&](int k) { return X + static_cast<std::ptrdiff_t>(std::min(k, m - 1)) * L; };
+/// C += A Bᵀ for the m rows of A (row r at A + r·lda) and the n rows of B (at B + r·ldb), each K
+/// long; with kLower only C's lower triangle (c <= r; A = B, m = n: a symmetric rank update).
+/// Every output comes from a block of 2 rows × 4 columns with eight accumulators in registers, so
+/// each loaded vector feeds 4/3 FMAs instead of 1/2 for one dot product at a time. Near the
+/// diagonal (and at the edges of C) the block computes a few outputs that are dropped: past the
+/// last row of A or B it reads that last row again. (The narrower remainder loops this replaces
+/// were left scalar by GCC 12: 13 % of the linearization.) Inlined into every variant, compiled
+/// for each instruction set.
+template <bool kLower>
+__attribute__((always_inline)) inline void dotBlocks(int m, int n, int K, const double* A,
+                                                     std::ptrdiff_t lda, const double* B,
+                                                     std::ptrdiff_t ldb, double* C,
+                                                     std::ptrdiff_t ldc) {
+  const auto rowA = [&](int k) { return A + std::min(k, m - 1) * lda; };
+  const auto rowB = [&](int k) { return B + std::min(k, n - 1) * ldb; };
   for (int r = 0; r < m; r += 2) {
-    const double *x0 = row(r), *x1 = row(r + 1);
-    for (int c = 0; c <= r + 1 && c < m; c += 4) {
-      const double *y0 = row(c), *y1 = row(c + 1), *y2 = row(c + 2), *y3 = row(c + 3);
+    const double *x0 = rowA(r), *x1 = rowA(r + 1);
+    const int cols = kLower ? std::min(r + 2, n) : n;
+    for (int c = 0; c < cols; c += 4) {
+      const double *y0 = rowB(c), *y1 = rowB(c + 1), *y2 = rowB(c + 2), *y3 = rowB(c + 3);
       double a0 = 0, a1 = 0, a2 = 0, a3 = 0, b0 = 0, b1 = 0, b2 = 0, b3 = 0;
 #pragma omp simd reduction(+ : a0, a1, a2, a3, b0, b1, b2, b3)
-      for (int p = 0; p < L; ++p) {
+      for (int p = 0; p < K; ++p) {
         a0 += x0[p] * y0[p];
         a1 += x0[p] * y1[p];
         a2 += x0[p] * y2[p];
@@ -40,12 +48,19 @@ __attribute__((always_inline)) inline void syrkLower(int m, int L, const double*
         b3 += x1[p] * y3[p];
       }
       const double a[4] = {a0, a1, a2, a3}, b[4] = {b0, b1, b2, b3};
-      for (int k = 0; k < 4; ++k) {
-        if (c + k <= r) C[r * ldc + c + k] += a[k];
-        if (r + 1 < m && c + k <= r + 1) C[(r + 1) * ldc + c + k] += b[k];
+      for (int k = 0; k < 4 && c + k < n; ++k) {
+        if (!kLower || c + k <= r) C[r * ldc + c + k] += a[k];
+        if (r + 1 < m && (!kLower || c + k <= r + 1)) C[(r + 1) * ldc + c + k] += b[k];
       }
     }
   }
+}
+
+/// The kernel's Gram sums: C += X Xᵀ on the lower triangle (C row-major, leading dimension ldc)
+/// for the m rows of X, row r at X + r·L.
+__attribute__((always_inline)) inline void syrkLower(int m, int L, const double* X, double* C,
+                                                     int ldc) {
+  dotBlocks<true>(m, m, L, X, L, X, L, C, ldc);
 }
 
 }  // namespace
@@ -299,6 +314,39 @@ void processChunk(Isa isa, const Camera& cam, const Filter& flt, int p0, int n, 
       break;
   }
   chunkBaseline(cam, flt, p0, n, xn, yn, d, edges, acc);
+}
+
+namespace {
+// The products of dot_products.h, one function per instruction set like the chunk above.
+__attribute__((target("avx2,fma"))) void gemmNTAvx2Fma(int m, int n, int K, const double* A,
+                                                       std::ptrdiff_t lda, const double* B,
+                                                       std::ptrdiff_t ldb, double* C,
+                                                       std::ptrdiff_t ldc, bool lower) {
+  if (lower)
+    dotBlocks<true>(m, n, K, A, lda, B, ldb, C, ldc);
+  else
+    dotBlocks<false>(m, n, K, A, lda, B, ldb, C, ldc);
+}
+void gemmNTBaseline(int m, int n, int K, const double* A, std::ptrdiff_t lda, const double* B,
+                    std::ptrdiff_t ldb, double* C, std::ptrdiff_t ldc, bool lower) {
+  if (lower)
+    dotBlocks<true>(m, n, K, A, lda, B, ldb, C, ldc);
+  else
+    dotBlocks<false>(m, n, K, A, lda, B, ldb, C, ldc);
+}
+}  // namespace
+
+void gemmNT(int m, int n, int K, const double* A, std::ptrdiff_t lda, const double* B,
+            std::ptrdiff_t ldb, double* C, std::ptrdiff_t ldc, bool lower) {
+  if (m <= 0 || n <= 0 || K <= 0) return;
+  switch (selectedIsa()) {
+    case Isa::Avx2Fma:
+      gemmNTAvx2Fma(m, n, K, A, lda, B, ldb, C, ldc, lower);
+      return;
+    case Isa::Baseline:
+      break;
+  }
+  gemmNTBaseline(m, n, K, A, lda, B, ldb, C, ldc, lower);
 }
 
 }  // namespace dbacov::kernel
