@@ -132,17 +132,16 @@ struct EdgeAccum {
   // Nuisance only, on the edge's source slots (slots[a] = the a-th 6-block's keyframe slot):
   std::vector<int> slots;
   // Nuisance: the factors of I_e, the edge's 6T × 6T share of S (not formed), I = P(Auu)Pᵀ −
-  // (P A Bᵀ + transpose) + B diag(w) Bᵀ over the source's depth columns B (SourceTerms), P
-  // scattering the edge's 12 coordinates idx into the 6T and A = [acr_p] (12 × P). The products
-  // with B are formed per source once the white scales are known (nuisanceCovariance): one
-  // 6T × HW × 6T product there instead of a 12 × HW × 6T one per edge here.
+  // (P X + transpose) + B diag(w) Bᵀ over the source's depth columns B (SourceTerms), P
+  // scattering the edge's 12 coordinates idx into the 6T and X = Σ_p acr_p B_pᵀ (12 × 6T: small,
+  // where the acr_p themselves would be 12 per pixel and edge, 17 MB on the shared snapshot).
   int source = -1;            ///< index into the pass's SourceTerms
   std::array<int, 12> idx{};  ///< the edge's 12 coordinates within the source's 6T
   Matrix12d Auu;              ///< Σ u uᵀ
-  Eigen::Matrix<double, 12, Eigen::Dynamic> acr;  ///< 12 × P, Σ_k c_k u_k per pixel
-  Eigen::VectorXd w;                              ///< P, Σ_k c_k² per pixel
-  std::vector<int> pixel_of;                      ///< P, the pixels
-  Eigen::MatrixXd C;                              ///< 6T × m, Σ_{rows of e} v φᵀ
+  Eigen::Matrix<double, 12, Eigen::Dynamic> cross;  ///< 12 × 6T, Σ_p (Σ_k c_k u_k) B_pᵀ
+  Eigen::VectorXd w;                                ///< P, Σ_k c_k² per pixel
+  std::vector<int> pixel_of;                        ///< P, the pixels
+  Eigen::MatrixXd C;                                ///< 6T × m, Σ_{rows of e} v φᵀ
   Eigen::MatrixXd Mn;  ///< m × m, the field's information after poses and depths
   /// Per field group g, m × m: (M_s D_g M_s)_ee, Cov(t) per unit σ_g² (the source's fields).
   std::vector<Eigen::MatrixXd> An;
@@ -300,8 +299,12 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           Row r{p, c, lam[c], f.r[c], f.J_d[c], f.J_i.row(c), f.J_j.row(c)};
           h[p] += lam[c] * r.jd * r.jd;
           gd[p] += lam[c] * r.jd * r.r;
-          B.col(p).segment<6>(0) += lam[c] * r.jd * r.Ji.transpose();
-          B.col(p).segment<6>(6 * tpos[q]) += lam[c] * r.jd * r.Jj.transpose();
+          double* bp = &B(0, p);  // (plain loops: Eigen left these two as calls)
+          const double lj = lam[c] * r.jd;
+          for (int i = 0; i < 6; ++i) {
+            bp[i] += lj * r.Ji[i];
+            bp[6 * tpos[q] + i] += lj * r.Jj[i];
+          }
           rows[q].push_back(r);
         }
       }
@@ -323,6 +326,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     // (The products over pixels here and below run in dot-product form, dot_products.h.)
     Eigen::MatrixXd SB = Eigen::MatrixXd::Zero(6 * T, HW);  // column p: Σ B_p
     kernel::gemmNT(HW, 6 * T, 6 * T, B.data(), 6 * T, Sig.data(), 6 * T, SB.data(), 6 * T);
+    // Nuisance: B with its rows along the pixels, for the cross terms X_e and SourceTerms.
+    const RowMatrix B_rows = nuisance ? RowMatrix(B) : RowMatrix();
     Eigen::VectorXd bSb(HW);
     for (int p = 0; p < HW; ++p) bSb[p] = B.col(p).dot(SB.col(p));
 
@@ -572,7 +577,13 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.source = static_cast<int>(si);
         a.idx = idx;
         a.Auu = Auu;
-        a.acr = std::move(Acr);
+        {
+          RowMatrix acr_all = RowMatrix::Zero(12, HW);  // the edge's acr_p on every pixel
+          for (int pix = 0; pix < P; ++pix) acr_all.col(rq[first_row[pix]].pixel) = Acr.col(pix);
+          RowMatrix cross = RowMatrix::Zero(12, 6 * T);
+          kernel::gemmNT(12, 6 * T, HW, acr_all.data(), HW, B_rows.data(), HW, cross.data(), 6 * T);
+          a.cross = cross;
+        }
         a.w = wsq.cwiseAbs2();
         a.pixel_of.resize(P);
         for (int pix = 0; pix < P; ++pix) a.pixel_of[pix] = rq[first_row[pix]].pixel;
@@ -678,7 +689,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           a.An[g] = a.An[g].selfadjointView<Eigen::Upper>();  // row-major lower = upper here
         }
       }
-      if (source_terms) (*source_terms)[si] = SourceTerms{touched, RowMatrix(B)};
+      if (source_terms) (*source_terms)[si] = SourceTerms{touched, B_rows};
     }
   });
   return acc;
@@ -905,16 +916,17 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
         X.block<6, 6>(6 * a.slots[p], 6 * a.slots[q]) += Xe.block<6, 6>(6 * p, 6 * q);
   }
   // Σ_e (s_e − 1) I_e, per source from the factors of its edges' I_e (EdgeAccum): with
-  // f_e = s_e − 1, ω = Σ_e f_e w_e (per pixel) and R = Σ_e f_e P_e A_e (6T × HW, on the edges'
-  // pixels), Σ_e f_e I_e = Σ_e f_e P_e Auu_e P_eᵀ + Y Bᵀ + B Yᵀ with Y = B diag(ω/2) − R: one
-  // 6T × HW × 6T product per source.
-  for (std::size_t si = 0; si < sources.size(); ++si) {
+  // f_e = s_e − 1 and ω = Σ_e f_e w_e (per pixel), Σ_e f_e I_e = Σ_e f_e (P_e Auu_e P_eᵀ −
+  // P_e X_e − X_eᵀ P_eᵀ) + B diag(ω) Bᵀ: one 6T × HW × 6T product per source (its lower
+  // triangle). The sources in parallel, added to X in source order (the same sums for any
+  // thread count).
+  std::vector<Eigen::MatrixXd> per_source(sources.size());
+  parallelFor(sources.size(), [&](std::size_t si) {
     const SourceTerms& st = sources[si];
-    if (st.B.size() == 0) continue;
+    if (st.B.size() == 0) return;
     const int T6 = static_cast<int>(st.B.rows()), HW = static_cast<int>(st.B.cols());
-    Eigen::MatrixXd Xs = Eigen::MatrixXd::Zero(T6, T6);
     Eigen::VectorXd omega = Eigen::VectorXd::Zero(HW);
-    RowMatrix Y = RowMatrix::Zero(T6, HW);
+    Eigen::MatrixXd Xs = Eigen::MatrixXd::Zero(T6, T6);
     bool any = false;
     for (int e = 0; e < E; ++e) {
       const EdgeAccum& a = acc[e];
@@ -922,20 +934,25 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       const double f = se[e] - 1.0;
       if (f == 0) continue;
       any = true;
-      for (int i = 0; i < 12; ++i)
+      for (int i = 0; i < 12; ++i) {
         for (int j = 0; j < 12; ++j) Xs(a.idx[i], a.idx[j]) += f * a.Auu(i, j);
-      for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix) {
-        const int px = a.pixel_of[pix];
-        omega[px] += f * a.w[static_cast<Eigen::Index>(pix)];
-        for (int i = 0; i < 12; ++i)
-          Y(a.idx[i], px) -= f * a.acr(i, static_cast<Eigen::Index>(pix));
+        Xs.row(a.idx[i]) -= f * a.cross.row(i);
+        Xs.col(a.idx[i]) -= f * a.cross.row(i).transpose();
       }
+      for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
+        omega[a.pixel_of[pix]] += f * a.w[static_cast<Eigen::Index>(pix)];
     }
-    if (!any) continue;
-    Y.noalias() += st.B * (0.5 * omega).asDiagonal();
-    RowMatrix YB = RowMatrix::Zero(T6, T6);
-    kernel::gemmNT(T6, T6, HW, Y.data(), HW, st.B.data(), HW, YB.data(), T6);
-    Xs += YB + YB.transpose();
+    if (!any) return;
+    const RowMatrix Bw = st.B * omega.asDiagonal();
+    RowMatrix BwB = RowMatrix::Zero(T6, T6);
+    kernel::gemmNT(T6, T6, HW, Bw.data(), HW, st.B.data(), HW, BwB.data(), T6, true);
+    Xs += Eigen::MatrixXd(BwB.selfadjointView<Eigen::Lower>());
+    per_source[si] = std::move(Xs);
+  });
+  for (std::size_t si = 0; si < sources.size(); ++si) {
+    const SourceTerms& st = sources[si];
+    const Eigen::MatrixXd& Xs = per_source[si];
+    if (Xs.size() == 0) continue;
     const int T = static_cast<int>(st.touched.size());
     for (int p = 0; p < T; ++p)
       for (int q = 0; q < T; ++q)
