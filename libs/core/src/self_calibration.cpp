@@ -811,19 +811,32 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       const Eigen::LLT<Eigen::MatrixXd> llt(Cv);
       et.ok = llt.info() == Eigen::Success;
       if (!et.ok) return;
-      const Eigen::VectorXd Ciy = llt.solve(f.y);
-      et.ll = -0.5 * (2 * llt.matrixLLT().diagonal().array().log().sum() + f.y.dot(Ciy));
-      if (!score) return;
+      const double logdet = 2 * llt.matrixLLT().diagonal().array().log().sum();
+      if (!score) {
+        et.ll = -0.5 * (logdet + f.y.dot(llt.solve(f.y)));
+        return;
+      }
+      // With Cv = L Lᵀ and the whitened Ĉ_g = L⁻¹ B_g L⁻ᵀ, z = L⁻¹ y: yᵀCv⁻¹y = |z|²,
+      // tr(Cv⁻¹B_g) = tr Ĉ_g, yᵀCv⁻¹B_gCv⁻¹y = zᵀĈ_g z, tr(Cv⁻¹B_g Cv⁻¹B_h) = ⟨Ĉ_g, Ĉ_h⟩; the
+      // Ĉ_g are two products in dot-product form (dot_products.h) per group.
+      RowMatrix Linv = RowMatrix::Identity(r, r);
+      llt.matrixL().solveInPlace(Linv);
+      const Eigen::VectorXd z = Linv * f.y;
+      et.ll = -0.5 * (logdet + z.squaredNorm());
       et.score.setZero(G);
       et.info.setZero(G, G);
-      std::vector<Eigen::MatrixXd> CiB(G);
+      std::vector<RowMatrix> Cw(G);
+      RowMatrix X(r, r);
       for (int g = 0; g < G; ++g) {
-        CiB[g] = llt.solve(f.B[g]);
-        et.score[g] = 0.5 * (Ciy.dot(f.B[g] * Ciy) - CiB[g].trace());
+        X.setZero();
+        kernel::gemmNT(r, r, r, Linv.data(), r, f.B[g].data(), r, X.data(), r);  // L⁻¹ B_g
+        Cw[g].setZero(r, r);
+        kernel::gemmNT(r, r, r, X.data(), r, Linv.data(), r, Cw[g].data(), r, true);
+        Cw[g] = Cw[g].selfadjointView<Eigen::Lower>();
+        et.score[g] = 0.5 * (z.dot(Cw[g] * z) - Cw[g].trace());
       }
       for (int g = 0; g < G; ++g)
-        for (int h = 0; h < G; ++h)
-          et.info(g, h) = 0.5 * CiB[g].cwiseProduct(CiB[h].transpose()).sum();
+        for (int h = 0; h < G; ++h) et.info(g, h) = 0.5 * Cw[g].cwiseProduct(Cw[h]).sum();
     });
     double ll = 0;
     if (score) *score = Eigen::VectorXd::Zero(G);
