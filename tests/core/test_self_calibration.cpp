@@ -21,6 +21,7 @@
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/sensor_modes.h"
 #include "fixtures.h"
+#include "kernel_variants.h"
 
 namespace dbacov {
 namespace {
@@ -187,7 +188,7 @@ Snapshot solvedTiny(std::uint64_t seed) {
   return s;
 }
 
-TEST(SelfCalibration, RedundancyScoreAndSandwichMatchDenseReference) {
+void expectRedundancyScoreAndSandwichMatchDenseReference() {
   const Snapshot s = solvedTiny(3);
   const DbaOptions o = testing::gaugeOptions(GaugeOptions::Type::TwoPose, 0.0, 0.0);
   const EdgeReference ref = denseEdgeReference(s, o);
@@ -221,6 +222,13 @@ TEST(SelfCalibration, RedundancyScoreAndSandwichMatchDenseReference) {
     const Eigen::MatrixXd want = expected.block<6, 6>(6 * a, 6 * a);
     EXPECT_LE((got - want).norm(), 1e-6 * (1e-12 + want.norm())) << "keyframe " << kf[a];
   }
+}
+
+// The passes' products over pixels run in the pixel kernel's instruction set (dot_products.h):
+// every variant this CPU runs.
+TEST(SelfCalibration, RedundancyScoreAndSandwichMatchDenseReference) {
+  testing::forEachKernelIsa(
+      [](kernel::Isa) { expectRedundancyScoreAndSandwichMatchDenseReference(); });
 }
 
 /// The nuisance method against the dense reference: the field's information and scores from
@@ -399,9 +407,11 @@ TEST(SelfCalibration, NuisanceCellTransformReproducesTheBasis) {
 }
 
 TEST(SelfCalibration, NuisanceMatchesDenseReference) {
-  expectNuisanceMatchesDenseReference(0);  // affine
-  expectNuisanceMatchesDenseReference(2);  // affine + 2 × 2 tents: one spline cell
-  expectNuisanceMatchesDenseReference(3);  // affine + 3 × 3 tents: two variance components
+  testing::forEachKernelIsa([](kernel::Isa) {
+    expectNuisanceMatchesDenseReference(0);  // affine
+    expectNuisanceMatchesDenseReference(2);  // affine + 2 × 2 tents: one spline cell
+    expectNuisanceMatchesDenseReference(3);  // affine + 3 × 3 tents: two variance components
+  });
 }
 
 /// The median of the per-edge inflations (edges with pixels).
