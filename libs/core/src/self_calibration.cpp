@@ -278,6 +278,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     // Rows of every edge, and the depth terms h, b of every pixel.
     std::vector<std::vector<Row>> rows(Q);
     for (auto& r : rows) r.reserve(static_cast<std::size_t>(2 * HW));
+    std::vector<std::vector<int>> first_rows(Q);  // per edge, where each pixel's rows begin
+    for (auto& f : first_rows) f.reserve(static_cast<std::size_t>(HW) + 1);
     std::vector<double> h(HW, 0.0), gd(HW, 0.0);  // depth information and gradient Σ λ J_d r
     Eigen::MatrixXd B = Eigen::MatrixXd::Zero(6 * T, HW);
     PixelFactorLinearization f;
@@ -294,6 +296,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         if (!keepPixelFactor(o, d, Y.z())) continue;
         linearizePixelFactor(R[q], t[q], K, x, y, d, s.targetPlane(e, 0)[p], s.targetPlane(e, 1)[p],
                              &f);
+        first_rows[q].push_back(static_cast<int>(rows[q].size()));
         for (int c = 0; c < 2; ++c) {
           if (!(lam[c] > 0)) continue;
           Row r{p, c, lam[c], f.r[c], f.J_d[c], f.J_i.row(c), f.J_j.row(c)};
@@ -327,7 +330,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     Eigen::MatrixXd SB = Eigen::MatrixXd::Zero(6 * T, HW);  // column p: Σ B_p
     kernel::gemmNT(HW, 6 * T, 6 * T, B.data(), 6 * T, Sig.data(), 6 * T, SB.data(), 6 * T);
     // Nuisance: B with its rows along the pixels, for the cross terms X_e and SourceTerms.
-    const RowMatrix B_rows = nuisance ? RowMatrix(B) : RowMatrix();
+    RowMatrix B_rows = nuisance ? RowMatrix(B) : RowMatrix();
     Eigen::VectorXd bSb(HW);
     for (int p = 0; p < HW; ++p) bSb[p] = B.col(p).dot(SB.col(p));
 
@@ -357,9 +360,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       Matrix12d S12;
       for (int r = 0; r < 12; ++r)
         for (int c = 0; c < 12; ++c) S12(r, c) = Sig(idx[r], idx[c]);
-      std::vector<int> first_row;  // pixels of the edge (rows come pixel by pixel)
-      for (int k = 0; k < M; ++k)
-        if (k == 0 || rq[k - 1].pixel != rq[k].pixel) first_row.push_back(k);
+      std::vector<int>& first_row = first_rows[q];  // the edge's pixels (rows come pixel by pixel)
       const int P = static_cast<int>(first_row.size());
       first_row.push_back(M);
       // The rows' u_k, one column each (stored row by row: Σ u uᵀ is then one product in
@@ -689,7 +690,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           a.An[g] = a.An[g].selfadjointView<Eigen::Upper>();  // row-major lower = upper here
         }
       }
-      if (source_terms) (*source_terms)[si] = SourceTerms{touched, B_rows};
+      if (source_terms) (*source_terms)[si] = SourceTerms{touched, std::move(B_rows)};
     }
   });
   return acc;
