@@ -213,7 +213,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
   // cell's map T from the monomials to the active values (NuisanceBasis; the sums run on the
   // monomials, so the values themselves are not kept).
   struct FieldTable {
-    std::vector<int> index, cell, pos_in_cell;
+    std::vector<int> index, cell;
     std::vector<double> mono, T;
     std::vector<std::vector<int>> pixels_of_cell;
   } field;
@@ -222,11 +222,9 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     field.index.resize(na * HW);
     std::vector<double> value(na);
     field.cell.resize(HW);
-    field.pos_in_cell.resize(HW);
     field.pixels_of_cell.resize(static_cast<std::size_t>(nuisance->cells()));
     for (int px = 0; px < HW; ++px) {
       field.cell[px] = nuisance->eval(px % s.W, px / s.W, &field.index[na * px], value.data());
-      field.pos_in_cell[px] = static_cast<int>(field.pixels_of_cell[field.cell[px]].size());
       field.pixels_of_cell[field.cell[px]].push_back(px);
     }
     // Stored kMono wide (the affine basis's three monomials padded with a zero).
@@ -613,8 +611,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       // what the other edges' fields put into it. Cell by cell (the cell's pixels touch the same
       // coordinates of every edge, (q, c, active u) -> q·mn + c·mb + index[u]), on the monomials
       // with Z = [b_p ⊗ m_p] (2Q·4 × the cell's pixels, b = b_c / √h): Σ_p β_p β_pᵀ / h_p from
-      // Z Zᵀ, and C's depth term Σ_p B_p (b_c(p) / h_p) φ(p)ᵀ from B_cell diag(1/√h) Zᵀ, each
-      // (qc, rc) block mapped by T_cell.
+      // Z Zᵀ, and C's depth term Σ_p B_p (b_c(p) / h_p) φ(p)ᵀ from B_c diag(1/√h) Zᵀ (B_c: the
+      // cell's columns of B), each (qc, rc) block mapped by T_cell.
       const int mb = nuisance->perChannel(), na = nuisance->active();
       Eigen::MatrixXd Ms = n_raw;
       RowMatrix Zc, Lm, Zb;
