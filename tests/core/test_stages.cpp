@@ -94,20 +94,22 @@ TEST(LinearizationStage, NormalEquationsEqualTheDenseJacobianProduct) {
 
 // The self-calibration's products over pixels (dot_products.h) against Eigen's, in every variant:
 // sizes below, at and past the 2 × 4 block and the 4-wide vectors (odd rows, remainders), rows
-// with padding between them, += into C, and with lower only the lower triangle written (the
-// sentinels elsewhere must survive).
+// with padding between them, += into C, and with lower only the entries with column <= row
+// written (the sentinels elsewhere must survive), for A = B (a rank update) and for A ≠ B of any
+// shape (the likelihood's whitened products).
 TEST(DotProducts, EqualTheDenseProductInEveryVariant) {
   std::srand(7);
   testing::forEachKernelIsa([&](kernel::Isa) {
     for (const int m : {1, 2, 3, 5, 8, 13})
       for (const int n : {1, 4, 6, 7, 13})
         for (const int K : {1, 3, 4, 9, 42})
-          for (const bool lower : {false, true}) {
-            if (lower && m != n) continue;
+          for (const int mode : {0, 1, 2}) {  // full; lower with A = B; lower with A ≠ B
+            const bool lower = mode > 0, same = mode == 1;
+            if (same && m != n) continue;
             const int lda = K + 3, ldb = K + 1, ldc = n + 2;
             const Eigen::MatrixXd A = Eigen::MatrixXd::Random(m, lda);
-            const Eigen::MatrixXd B = lower ? A : Eigen::MatrixXd::Random(n, ldb);
-            const int ldB = lower ? lda : ldb;
+            const Eigen::MatrixXd B = same ? A : Eigen::MatrixXd::Random(n, ldb);
+            const int ldB = same ? lda : ldb;
             using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
             const RowMajor Ar = A, Br = B;
             RowMajor C = RowMajor::Constant(m, ldc, 0.5);

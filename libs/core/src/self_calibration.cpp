@@ -676,8 +676,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.Mn = Ms.block(q * mn, q * mn, mn, mn);
         a.An.assign(G, Eigen::MatrixXd::Zero(mn, mn));
         for (int g = 0; g < G; ++g) {
-          // The edge's rows of M_s on group g's columns (M_s is symmetric: gathered from its
-          // columns), row-major for the product.
+          // The edge's rows of M_s on group g's columns, gathered column by column into
+          // row-major storage for the product.
           std::vector<int> cols;
           for (int k = 0; k < Q * mn; ++k)
             if (nuisance->groupOf(k % mn) == g) cols.push_back(k);
@@ -887,8 +887,8 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
   };
   // θ and the s_e jointly: one Fisher step in θ, then the s_e given θ, until neither moves. The
   // fixed point is that of converging θ at each s_e in turn (the alternation's), reached with
-  // fewer likelihood evaluations (24 against 63 on the shared snapshot; the covariances agree
-  // to 3e-9).
+  // fewer likelihood evaluations (24 against 63 on the shared snapshot at the tolerance of 1e-8
+  // that the stop rule below had then; the covariances agreed to 3e-9).
   for (int round = 0; round < 500 && !fe.empty(); ++round) {
     const bool theta_done = fisherStep();
     // The white scales given σ² (at least 5 % of the residual stays white: the field cannot
