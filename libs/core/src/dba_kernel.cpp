@@ -317,22 +317,26 @@ void processChunk(Isa isa, const Camera& cam, const Filter& flt, int p0, int n, 
 }
 
 namespace {
-// The products of dot_products.h, one function per instruction set like the chunk above.
-__attribute__((target("avx2,fma"))) void gemmNTAvx2Fma(int m, int n, int K, const double* A,
-                                                       std::ptrdiff_t lda, const double* B,
-                                                       std::ptrdiff_t ldb, double* C,
-                                                       std::ptrdiff_t ldc, bool lower) {
+// The products of dot_products.h: one body, inlined into one function per instruction set like
+// the chunk's above.
+__attribute__((always_inline)) inline void gemmNTBody(int m, int n, int K, const double* A,
+                                                      std::ptrdiff_t lda, const double* B,
+                                                      std::ptrdiff_t ldb, double* C,
+                                                      std::ptrdiff_t ldc, bool lower) {
   if (lower)
     dotBlocks<true>(m, n, K, A, lda, B, ldb, C, ldc);
   else
     dotBlocks<false>(m, n, K, A, lda, B, ldb, C, ldc);
 }
+__attribute__((target("avx2,fma"))) void gemmNTAvx2Fma(int m, int n, int K, const double* A,
+                                                       std::ptrdiff_t lda, const double* B,
+                                                       std::ptrdiff_t ldb, double* C,
+                                                       std::ptrdiff_t ldc, bool lower) {
+  gemmNTBody(m, n, K, A, lda, B, ldb, C, ldc, lower);
+}
 void gemmNTBaseline(int m, int n, int K, const double* A, std::ptrdiff_t lda, const double* B,
                     std::ptrdiff_t ldb, double* C, std::ptrdiff_t ldc, bool lower) {
-  if (lower)
-    dotBlocks<true>(m, n, K, A, lda, B, ldb, C, ldc);
-  else
-    dotBlocks<false>(m, n, K, A, lda, B, ldb, C, ldc);
+  gemmNTBody(m, n, K, A, lda, B, ldb, C, ldc, lower);
 }
 }  // namespace
 

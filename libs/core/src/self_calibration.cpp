@@ -396,6 +396,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         for (int i = 0; i < 12; ++i) sb[i] = SB(idx[i], px);
         Vector12d acr = Vector12d::Zero(), al = Vector12d::Zero();
         double w = 0, gam = 0, be = 0;
+        double bc[2] = {0.0, 0.0};  // nuisance: Σ λ J_d per channel
+        const double* mono = nuisance ? &field.mono[static_cast<std::size_t>(kMono) * px] : nullptr;
         for (int k = first_row[pix]; k < first_row[pix + 1]; ++k) {
           const Row& r = rq[k];
           const double sl = std::sqrt(r.lam);
@@ -417,20 +419,18 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           }
           if (nuisance) {
             const int ic = 2 * field.cell[px] + r.channel;
-            const Eigen::Map<const Eigen::Matrix<double, kMono, 1>> mo(&field.mono[kMono * px]);
+            const Eigen::Map<const Eigen::Matrix<double, kMono, 1>> mo(mono);
             CUm[ic].noalias() += u * (sl * mo).transpose();
             tm[ic] += sr[k] * sl * mo;
             Nm[ic].noalias() += (r.lam * mo) * mo.transpose();
+            bc[r.channel] += r.lam * r.jd;
           }
         }
         if (nuisance) {
           const int cell = field.cell[px];
           in_cell[cell] = 1;
-          double bc[2] = {0.0, 0.0};
-          for (int k = first_row[pix]; k < first_row[pix + 1]; ++k)
-            bc[rq[k].channel] += rq[k].lam * rq[k].jd;
           if (reduced) {
-            const Eigen::Map<const Eigen::Matrix<double, kMono, 1>> mo(&field.mono[kMono * px]);
+            const Eigen::Map<const Eigen::Matrix<double, kMono, 1>> mo(mono);
             for (int c = 0; c < 2; ++c) {
               tm[2 * cell + c] -= (bc[c] * gd[px] / hp) * mo;
               b_src(2 * q + c, px) = bc[c] / std::sqrt(hp);
