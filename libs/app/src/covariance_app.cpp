@@ -177,7 +177,7 @@ class Run {
     for (const auto& sink : sinks_) covariance.depth_variances |= sink->needsDepthVariances();
     Progress progress(err_, inputs.knownCount(), !opt_.quiet);
     progress_ = &progress;
-    SnapshotStream stream(inputs);
+    SnapshotStream stream(inputs, /*defer_npz=*/true);  // .npz files load on the workers
     runSnapshotPipeline(
         stream, 2 * std::max<std::size_t>(1, currentThreadLimit()),
         [&](PipelineItem& item) { compute(item, engine, covariance); },

@@ -41,7 +41,9 @@ void runSnapshotPipeline(SnapshotStream& stream, std::size_t in_flight,
           tbb::make_filter<Ptr, Ptr>(tbb::filter_mode::parallel,
                                      [&](Ptr item) {
                                        try {
-                                         if (!stop && item->input.ok()) compute(*item);
+                                         if (stop) return item;
+                                         loadPending(&item->input);  // a deferred .npz
+                                         if (item->input.ok()) compute(*item);
                                        } catch (...) {
                                          fail();
                                        }

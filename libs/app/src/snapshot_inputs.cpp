@@ -67,7 +67,8 @@ void SnapshotInputs::forEach(const std::function<bool(Snapshot&)>& process,
     if (!(item.ok() ? process(item.snapshot) : on_error(item))) return;
 }
 
-SnapshotStream::SnapshotStream(const SnapshotInputs& inputs) : inputs_(inputs) {}
+SnapshotStream::SnapshotStream(const SnapshotInputs& inputs, bool defer_npz)
+    : inputs_(inputs), defer_npz_(defer_npz) {}
 
 SnapshotStream::~SnapshotStream() = default;
 
@@ -82,9 +83,21 @@ void setError(SnapshotItem* item, const std::exception& e, const std::string& so
 
 }  // namespace
 
+void loadPending(SnapshotItem* item) {
+  if (item->pending_npz.empty()) return;
+  const std::string file = std::move(item->pending_npz);
+  item->pending_npz.clear();
+  try {
+    item->snapshot = io::loadSnapshotNpz(file, item->pending_index);
+  } catch (const std::exception& e) {
+    setError(item, e, file);
+  }
+}
+
 bool SnapshotStream::next(SnapshotItem* item) {
   item->error.clear();
   item->source.clear();
+  item->pending_npz.clear();
   while (file_ < inputs_.entries().size()) {
     const SnapshotInputs::Entry& entry = inputs_.entries()[file_];
     const std::string& file = entry.path;
@@ -96,6 +109,11 @@ bool SnapshotStream::next(SnapshotItem* item) {
     }
     if (!isRawlogPath(file)) {
       ++file_;
+      if (defer_npz_) {
+        item->pending_npz = file;
+        item->pending_index = index_++;
+        return true;
+      }
       try {
         item->snapshot = io::loadSnapshotNpz(file, index_++);
       } catch (const std::exception& e) {

@@ -23,7 +23,10 @@ struct PipelineItem {
 /// order. At most `in_flight` snapshots are in memory, so memory does not grow with the length of
 /// the input. `consume` returns false to stop the run: nothing more is read and the items in
 /// flight are dropped unconsumed. An exception from any stage stops the run the same way and is
-/// rethrown here once the pipeline has drained.
+/// rethrown here once the pipeline has drained. An item the stream left pending (a deferred
+/// `.npz`, SnapshotStream's defer_npz) is read by loadPending() in the concurrent stage, before
+/// `compute`: independent files then inflate in parallel while the order of everything that
+/// `consume` sees stays the input's.
 void runSnapshotPipeline(SnapshotStream& stream, std::size_t in_flight,
                          const std::function<void(PipelineItem&)>& compute,
                          const std::function<bool(PipelineItem&)>& consume);

@@ -57,8 +57,17 @@ struct SnapshotItem {
   std::string error;
   std::string source;  ///< on failure: the snapshot's source ("file", "file.rawlog#entry") or file
   FailureKind kind = FailureKind::InvalidInput;  ///< on failure
+  /// From a stream that defers `.npz` loads: the file still to be read (and its index), instead
+  /// of `snapshot`; loadPending() reads it. Empty once loaded, and for every other item.
+  std::string pending_npz;
+  std::int64_t pending_index = -1;
   bool ok() const { return error.empty(); }
 };
+
+/// Reads the item's pending `.npz` file, if any, exactly as an eager SnapshotStream would have
+/// (the same snapshot, or the same error naming the file). Safe to call on any thread, for
+/// different items concurrently; does nothing for an item that is not pending.
+void loadPending(SnapshotItem* item);
 
 /// Pull-based reading of the inputs, one snapshot in memory at a time. The n-th item (0-based over
 /// all inputs, failures included) gets index n. A problem input yields an error item; an
@@ -66,13 +75,17 @@ struct SnapshotItem {
 /// holds no snapshot at all; reading goes on with the next input.
 class SnapshotStream {
  public:
-  explicit SnapshotStream(const SnapshotInputs& inputs);
+  /// With defer_npz, a `.npz` input is not read by next(): the item names it (pending_npz) and
+  /// the caller reads it with loadPending(), e.g. on a worker thread, so that independent files
+  /// inflate in parallel. Rawlogs are read by next() in either case (one stream).
+  explicit SnapshotStream(const SnapshotInputs& inputs, bool defer_npz = false);
   ~SnapshotStream();
   /// False at the end.
   bool next(SnapshotItem* item);
 
  private:
   const SnapshotInputs& inputs_;
+  bool defer_npz_ = false;
   std::size_t file_ = 0;
   std::int64_t index_ = 0;
   std::unique_ptr<mrpt_bridge::SnapshotRawlogReader> rawlog_;
