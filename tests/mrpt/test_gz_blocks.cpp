@@ -1,9 +1,11 @@
 // The gzip members of GzOutputStream (issue 19: each inflated whole with libdeflate on reading):
 // members that carry their size, read back by zlib and by GzInputStream; another writer's member
-// after ours read through zlib; damage and a cut between two members are read errors, not ends.
+// after ours read through zlib; damage and a cut between two members are read errors, not ends;
+// members that deflate barely shrinks are stored blocks.
 #include <zlib.h>
 
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <vector>
@@ -19,15 +21,13 @@ namespace {
 using mrpt_bridge::GzInputStream;
 using mrpt_bridge::GzOutputStream;
 
-/// Compressible but not trivial: a slow random walk of bytes.
-std::vector<unsigned char> walk(std::size_t n, std::uint32_t seed) {
+/// Compressible but not trivial: random letters of a four-letter alphabet (deflate: ≈ 0.3).
+std::vector<unsigned char> letters(std::size_t n, std::uint32_t seed) {
   std::vector<unsigned char> v(n);
   std::uint32_t x = seed;
-  unsigned char b = 0;
   for (auto& c : v) {
     x = x * 1103515245u + 12345u;
-    b = static_cast<unsigned char>(b + ((x >> 28) & 3) - 1);
-    c = b;
+    c = static_cast<unsigned char>('a' + ((x >> 28) & 3));
   }
   return v;
 }
@@ -74,7 +74,7 @@ std::vector<std::size_t> members(const std::vector<unsigned char>& file) {
 }
 
 std::vector<unsigned char> writeOurs(const std::string& path, std::size_t n) {
-  const std::vector<unsigned char> data = walk(n, 99);
+  const std::vector<unsigned char> data = letters(n, 99);
   GzOutputStream out(path, path);
   for (std::size_t at = 0; at < n; at += 100000)  // several writes across member boundaries
     out.Write(data.data() + at, std::min<std::size_t>(100000, n - at));
@@ -114,7 +114,7 @@ TEST(GzBlocks, AnotherWritersMemberAfterOursAndOtherFilesGoThroughZlib) {
   testing::TempDir dir;
   const std::string path = dir.file("a.gz");
   std::vector<unsigned char> data = writeOurs(path, 500000);
-  const std::vector<unsigned char> tail = walk(200000, 5);
+  const std::vector<unsigned char> tail = letters(200000, 5);
   gzFile gz = gzopen(path.c_str(), "ab");  // zlib appends a member of its own
   ASSERT_NE(gz, nullptr);
   ASSERT_EQ(gzwrite(gz, tail.data(), static_cast<unsigned>(tail.size())),
@@ -169,6 +169,87 @@ TEST(GzBlocks, DamageAndACutBetweenMembersAreReadErrors) {
     ASSERT_GE(got.size(), before_third);
     EXPECT_TRUE(std::equal(got.begin(), got.end(), data.begin())) << "what was read is the data";
   }
+}
+
+/// Float32 noise, as a snapshot's flows and weights: deflate barely shrinks it.
+std::vector<unsigned char> floatNoise(std::size_t floats, std::uint32_t seed) {
+  std::vector<float> f(floats);
+  std::uint32_t x = seed;
+  for (float& v : f) {
+    x = x * 1103515245u + 12345u;
+    v = 20.0f + static_cast<float>(x >> 8) * 1e-6f;
+  }
+  std::vector<unsigned char> b(floats * sizeof(float));
+  std::memcpy(b.data(), f.data(), b.size());
+  return b;
+}
+
+/// BTYPE of the first deflate block of the member at `at` (0 = stored, 1 fixed, 2 dynamic).
+int firstBlockType(const std::vector<unsigned char>& file, std::size_t at) {
+  return (file[at + 24] >> 1) & 3;
+}
+
+TEST(GzBlocks, MembersDeflateBarelyShrinksAreStored) {
+  testing::TempDir dir;
+  const std::string path = dir.file("a.gz");
+  // A compressible stretch, float noise across several members, then compressible again.
+  std::vector<unsigned char> data = letters(300000, 7);
+  const std::vector<unsigned char> noise = floatNoise(250000, 3);
+  data.insert(data.end(), noise.begin(), noise.end());
+  const std::vector<unsigned char> tail = letters(600000, 8);
+  data.insert(data.end(), tail.begin(), tail.end());
+  {
+    GzOutputStream out(path, path);
+    out.Write(data.data(), data.size());
+    out.close();
+  }
+  const std::vector<unsigned char> file = fileBytes(path);
+  const std::vector<std::size_t> at = members(file);
+  // Uncompressed extents of the members: 8, 16, ..., 128 KiB, then 256 KiB each.
+  std::size_t begin = 0, stored = 0, compressed = 0;
+  for (std::size_t m = 0; m < at.size(); ++m) {
+    const std::size_t end = m + 1 < at.size() ? at[m + 1] : file.size();
+    const std::size_t isize =
+        file[end - 4] | file[end - 3] << 8 | file[end - 2] << 16 | std::size_t{file[end - 1]} << 24;
+    const bool all_noise = begin >= 300000 && begin + isize <= 1300000;
+    const bool no_noise = begin + isize <= 300000 || begin >= 1300000;
+    SCOPED_TRACE("member " + std::to_string(m) + " at " + std::to_string(begin));
+    if (all_noise) {
+      EXPECT_EQ(firstBlockType(file, at[m]), 0) << "float noise is stored";
+      EXPECT_LT(end - at[m], isize + isize / 1000 + 64) << "stored costs a few bytes";
+      ++stored;
+    } else if (no_noise) {
+      EXPECT_NE(firstBlockType(file, at[m]), 0) << "compressible data is compressed";
+      EXPECT_LT(4 * (end - at[m]), 3 * isize);
+      ++compressed;
+    }
+    begin += isize;
+  }
+  EXPECT_EQ(begin, data.size());
+  EXPECT_GE(stored, 2u);
+  EXPECT_GE(compressed, 4u);
+  // zlib and GzInputStream read the mix back.
+  gzFile gz = gzopen(path.c_str(), "rb");
+  ASSERT_NE(gz, nullptr);
+  std::vector<unsigned char> back(data.size() + 10);
+  EXPECT_EQ(gzread(gz, back.data(), static_cast<unsigned>(back.size())),
+            static_cast<int>(data.size()));
+  gzclose(gz);
+  back.resize(data.size());
+  EXPECT_EQ(back, data);
+  bool error = true;
+  EXPECT_EQ(readAllOf(path, &error), data);
+  EXPECT_FALSE(error);
+  // A flipped byte inside a stored member is caught by its CRC-32: a read error.
+  std::size_t victim = 0;
+  for (std::size_t m = 0; m < at.size() && !victim; ++m)
+    if (firstBlockType(file, at[m]) == 0) victim = at[m] + 24 + 5 + 1000;
+  ASSERT_GT(victim, 0u);
+  std::vector<unsigned char> flipped = file;
+  flipped[victim] ^= 0x10;
+  putBytes(dir.file("bad.gz"), flipped);
+  readAllOf(dir.file("bad.gz"), &error);
+  EXPECT_TRUE(error);
 }
 
 }  // namespace

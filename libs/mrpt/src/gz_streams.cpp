@@ -332,8 +332,11 @@ GzOutputStream::GzOutputStream(const std::string& path, const std::string& name)
   if (fd_ < 0)
     throw InputError(name_ + ": cannot open the rawlog output for writing: " + systemReason(errno));
   compressor_ = libdeflate_alloc_compressor(1);  // level 1, as MRPT's own rawlogs
-  if (!compressor_) {
+  store_ = libdeflate_alloc_compressor(0);       // stored blocks only
+  if (!compressor_ || !store_) {
     ::close(fd_);
+    if (compressor_) libdeflate_free_compressor(compressor_);
+    if (store_) libdeflate_free_compressor(store_);
     throw std::bad_alloc();
   }
   pending_.reserve(kGzBlockBytes);
@@ -342,6 +345,7 @@ GzOutputStream::GzOutputStream(const std::string& path, const std::string& name)
 GzOutputStream::~GzOutputStream() {
   if (fd_ >= 0) ::close(fd_);
   if (compressor_) libdeflate_free_compressor(compressor_);
+  if (store_) libdeflate_free_compressor(store_);
 }
 
 size_t GzOutputStream::Read(void*, size_t) {
@@ -349,13 +353,18 @@ size_t GzOutputStream::Read(void*, size_t) {
 }
 
 int GzOutputStream::flushBlock(bool last) {
-  const std::size_t bound = libdeflate_deflate_compress_bound(compressor_, pending_.size());
+  const std::size_t bound =
+      std::max(libdeflate_deflate_compress_bound(compressor_, pending_.size()),
+               libdeflate_deflate_compress_bound(store_, pending_.size()));
   member_.resize(kHeaderBytes + bound + kTrailerBytes);
   unsigned char* h = member_.data();
   const unsigned char header[16] = {0x1f, 0x8b, 8, 0x04, 0, 0, 0, 0, 0, 3, 12, 0, 'D', 'B', 8, 0};
   std::memcpy(h, header, sizeof header);
-  const std::size_t n = libdeflate_deflate_compress(compressor_, pending_.data(), pending_.size(),
-                                                    h + kHeaderBytes, bound);
+  std::size_t n = libdeflate_deflate_compress(compressor_, pending_.data(), pending_.size(),
+                                              h + kHeaderBytes, bound);
+  if (4 * n > 3 * pending_.size())  // saves less than a quarter: stored blocks instead
+    n = libdeflate_deflate_compress(store_, pending_.data(), pending_.size(), h + kHeaderBytes,
+                                    bound);
   if (n == 0) return ENOMEM;  // cannot happen with the bound
   const std::size_t size = kHeaderBytes + n + kTrailerBytes;
   store32(h + 16, static_cast<std::uint32_t>(size));
