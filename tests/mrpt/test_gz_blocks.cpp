@@ -21,15 +21,20 @@ namespace {
 using mrpt_bridge::GzInputStream;
 using mrpt_bridge::GzOutputStream;
 
-/// Compressible but not trivial: random letters of a four-letter alphabet (deflate: ≈ 0.3).
-std::vector<unsigned char> letters(std::size_t n, std::uint32_t seed) {
+/// Random bytes of an alphabet of `symbols` letters: deflate leaves ≈ log2(symbols) / 8 of them.
+std::vector<unsigned char> randomText(std::size_t n, std::uint32_t seed, unsigned symbols) {
   std::vector<unsigned char> v(n);
   std::uint32_t x = seed;
   for (auto& c : v) {
     x = x * 1103515245u + 12345u;
-    c = static_cast<unsigned char>('a' + ((x >> 28) & 3));
+    c = static_cast<unsigned char>(32 + (x >> 16) % symbols);
   }
   return v;
+}
+
+/// Compressible but not trivial: four letters (deflate: ≈ 0.3).
+std::vector<unsigned char> letters(std::size_t n, std::uint32_t seed) {
+  return randomText(n, seed, 4);
 }
 
 std::vector<unsigned char> fileBytes(const std::string& path) {
@@ -68,7 +73,13 @@ std::vector<std::size_t> members(const std::vector<unsigned char>& file) {
     EXPECT_EQ(file[p + 12], 'D');
     EXPECT_EQ(file[p + 13], 'B');
     at.push_back(p);
-    p += file[p + 16] | file[p + 17] << 8 | file[p + 18] << 16 | std::size_t{file[p + 19]} << 24;
+    const std::size_t size =
+        file[p + 16] | file[p + 17] << 8 | file[p + 18] << 16 | std::size_t{file[p + 19]} << 24;
+    if (size < 32) {
+      ADD_FAILURE() << "a member of " << size << " bytes at " << p;
+      break;
+    }
+    p += size;
   }
   return at;
 }
@@ -171,7 +182,7 @@ TEST(GzBlocks, DamageAndACutBetweenMembersAreReadErrors) {
   }
 }
 
-/// Float32 noise, as a snapshot's flows and weights: deflate barely shrinks it.
+/// Float32 noise, as a snapshot's flows and depth maps: deflate barely shrinks it.
 std::vector<unsigned char> floatNoise(std::size_t floats, std::uint32_t seed) {
   std::vector<float> f(floats);
   std::uint32_t x = seed;
@@ -240,6 +251,24 @@ TEST(GzBlocks, MembersDeflateBarelyShrinksAreStored) {
   bool error = true;
   EXPECT_EQ(readAllOf(path, &error), data);
   EXPECT_FALSE(error);
+  // On either side of the threshold: 24 letters (zlib level 1: 0.65) stay deflated, 100 (0.84)
+  // are stored.
+  for (const auto& [symbols, expect_stored] : {std::pair<unsigned, bool>{24, false}, {100, true}}) {
+    SCOPED_TRACE(std::to_string(symbols) + " letters");
+    const std::vector<unsigned char> text = randomText(200000, symbols, symbols);
+    {
+      GzOutputStream out(dir.file("t.gz"), "t.gz");
+      out.Write(text.data(), text.size());
+      out.close();
+    }
+    const std::vector<unsigned char> t = fileBytes(dir.file("t.gz"));
+    const std::vector<std::size_t> t_at = members(t);
+    ASSERT_GE(t_at.size(), 5u);
+    for (std::size_t m = 0; m < t_at.size(); ++m)
+      EXPECT_EQ(firstBlockType(t, t_at[m]) == 0, expect_stored) << "member " << m;
+    EXPECT_EQ(readAllOf(dir.file("t.gz"), &error), text);
+    EXPECT_FALSE(error);
+  }
   // A flipped byte inside a stored member is caught by its CRC-32: a read error.
   std::size_t victim = 0;
   for (std::size_t m = 0; m < at.size() && !victim; ++m)

@@ -73,7 +73,10 @@ int storedMembers(const std::string& path) {
   for (std::size_t p = 0; p + 25 <= f.size();) {
     if (f[p] != 0x1f || f[p + 12] != 'D' || f[p + 13] != 'B') return -1;
     stored += ((f[p + 24] >> 1) & 3) == 0;
-    p += f[p + 16] | f[p + 17] << 8 | f[p + 18] << 16 | std::size_t{f[p + 19]} << 24;
+    const std::size_t size =
+        f[p + 16] | f[p + 17] << 8 | f[p + 18] << 16 | std::size_t{f[p + 19]} << 24;
+    if (size < 32) return -1;
+    p += size;
   }
   return stored;
 }

@@ -110,6 +110,7 @@ bool SnapshotStream::next(SnapshotItem* item) {
     if (!isRawlogPath(file)) {
       ++file_;
       if (defer_npz_) {
+        item->snapshot = Snapshot();  // none until loadPending (not a previous item's)
         item->pending_npz = file;
         item->pending_index = index_++;
         return true;

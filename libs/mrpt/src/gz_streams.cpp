@@ -126,7 +126,7 @@ void GzInputStream::startZlib() {
 }
 
 bool GzInputStream::nextBlock() {
-  block_.clear();
+  block_end_ = 0;
   at_ = 0;
   unsigned char h[kHeaderBytes];
   const long got = readFull(fd_, h, kHeaderBytes);
@@ -136,19 +136,20 @@ bool GzInputStream::nextBlock() {
     compressed_ = members_ = true;
     if (size < kHeaderBytes + kTrailerBytes || size > kMaxMemberBytes)
       throw InputError(name_ + ": damaged compressed member");
-    raw_.resize(size);
+    if (raw_.size() < size) raw_.resize(size);  // grown, never shrunk: no zero-filling per member
     std::memcpy(raw_.data(), h, kHeaderBytes);
     const std::size_t rest = size - kHeaderBytes;
     if (readFull(fd_, raw_.data() + kHeaderBytes, rest) != static_cast<long>(rest))
       throw InputError(name_ + ": truncated compressed data");
     const std::uint32_t isize = load32(raw_.data() + size - 4);
     if (isize > kMaxMemberBytes) throw InputError(name_ + ": damaged compressed member");
-    block_.resize(isize);
+    if (block_.size() < isize) block_.resize(isize);
     std::size_t out = 0;
-    if (libdeflate_gzip_decompress(threadDecompressor(), raw_.data(), raw_.size(), block_.data(),
-                                   block_.size(), &out) != LIBDEFLATE_SUCCESS ||
+    if (libdeflate_gzip_decompress(threadDecompressor(), raw_.data(), size, block_.data(), isize,
+                                   &out) != LIBDEFLATE_SUCCESS ||
         out != isize)
       throw InputError(name_ + ": damaged compressed member");
+    block_end_ = isize;
     offset_ += size;
     last_ = (flags & kLastMember) != 0;
     return true;
@@ -303,7 +304,7 @@ size_t GzInputStream::Read(void* buffer, size_t count) {
       if (n != static_cast<size_t>(-1)) done += n;
       break;
     }
-    if (at_ == block_.size()) {
+    if (at_ == block_end_) {
       try {
         nextBlock();  // false: mode_ changed (zlib, or the end)
       } catch (const InputError&) {
@@ -311,7 +312,7 @@ size_t GzInputStream::Read(void* buffer, size_t count) {
       }
       continue;
     }
-    const size_t n = std::min(count - done, block_.size() - at_);
+    const size_t n = std::min(count - done, block_end_ - at_);
     std::memcpy(p + done, block_.data() + at_, n);
     at_ += n;
     done += n;
@@ -327,19 +328,17 @@ size_t GzInputStream::Write(const void*, size_t) {
 
 GzOutputStream::GzOutputStream(const std::string& path, const std::string& name)
     : GzFileStream(name) {
+  pending_.reserve(kGzBlockBytes);  // before anything that the destructor would have to release
   errno = 0;
   fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
   if (fd_ < 0)
     throw InputError(name_ + ": cannot open the rawlog output for writing: " + systemReason(errno));
   compressor_ = libdeflate_alloc_compressor(1);  // level 1, as MRPT's own rawlogs
-  store_ = libdeflate_alloc_compressor(0);       // stored blocks only
-  if (!compressor_ || !store_) {
+  if (!compressor_) {
     ::close(fd_);
-    if (compressor_) libdeflate_free_compressor(compressor_);
-    if (store_) libdeflate_free_compressor(store_);
     throw std::bad_alloc();
   }
-  pending_.reserve(kGzBlockBytes);
+  store_ = libdeflate_alloc_compressor(0);  // stored blocks; null if the library lacks level 0
 }
 
 GzOutputStream::~GzOutputStream() {
@@ -353,18 +352,19 @@ size_t GzOutputStream::Read(void*, size_t) {
 }
 
 int GzOutputStream::flushBlock(bool last) {
-  const std::size_t bound =
-      std::max(libdeflate_deflate_compress_bound(compressor_, pending_.size()),
-               libdeflate_deflate_compress_bound(store_, pending_.size()));
+  const std::size_t bound = libdeflate_deflate_compress_bound(compressor_, pending_.size());
   member_.resize(kHeaderBytes + bound + kTrailerBytes);
   unsigned char* h = member_.data();
   const unsigned char header[16] = {0x1f, 0x8b, 8, 0x04, 0, 0, 0, 0, 0, 3, 12, 0, 'D', 'B', 8, 0};
   std::memcpy(h, header, sizeof header);
+  // Level 1 into three quarters of the member's size. When that does not fit (0), deflate saves
+  // less than a quarter and the member is written as stored blocks instead (libdeflate level 0;
+  // a libdeflate without it: level 1 after all).
   std::size_t n = libdeflate_deflate_compress(compressor_, pending_.data(), pending_.size(),
-                                              h + kHeaderBytes, bound);
-  if (4 * n > 3 * pending_.size())  // saves less than a quarter: stored blocks instead
-    n = libdeflate_deflate_compress(store_, pending_.data(), pending_.size(), h + kHeaderBytes,
-                                    bound);
+                                              h + kHeaderBytes, 3 * pending_.size() / 4);
+  if (n == 0)
+    n = libdeflate_deflate_compress(store_ ? store_ : compressor_, pending_.data(), pending_.size(),
+                                    h + kHeaderBytes, bound);
   if (n == 0) return ENOMEM;  // cannot happen with the bound
   const std::size_t size = kHeaderBytes + n + kTrailerBytes;
   store32(h + 16, static_cast<std::uint32_t>(size));

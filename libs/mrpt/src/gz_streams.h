@@ -97,9 +97,10 @@ class GzInputStream : public GzFileStream {
   int fd_ = -1;
   Mode mode_ = Mode::Blocks;          ///< Blocks: regular files first; zlib modes after
   uint64_t offset_ = 0;               ///< compressed bytes consumed in block mode
-  std::vector<unsigned char> block_;  ///< the current member's uncompressed bytes
+  std::vector<unsigned char> block_;  ///< the current member's uncompressed bytes, [0, block_end_)
+  std::size_t block_end_ = 0;
   std::size_t at_ = 0;                ///< bytes of block_ already returned
-  std::vector<unsigned char> raw_;    ///< the current member's compressed bytes
+  std::vector<unsigned char> raw_;    ///< the current member's compressed bytes (a prefix)
   std::unique_ptr<z_stream_s> z_;     ///< zlib modes: the inflater, its input in input_
   std::vector<unsigned char> input_;  ///< zlib modes: file bytes read, from z_->next_in on unused
   std::vector<unsigned char> out_;    ///< zlib modes: bytes inflated ahead, from out_at_ on unread

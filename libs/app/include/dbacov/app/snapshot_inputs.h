@@ -58,7 +58,8 @@ struct SnapshotItem {
   std::string source;  ///< on failure: the snapshot's source ("file", "file.rawlog#entry") or file
   FailureKind kind = FailureKind::InvalidInput;  ///< on failure
   /// From a stream that defers `.npz` loads: the file still to be read (and its index), instead
-  /// of `snapshot`; loadPending() reads it. Empty once loaded, and for every other item.
+  /// of `snapshot` (empty meanwhile); loadPending() reads it, and only then does ok() tell
+  /// whether it could be read. Empty once loaded, and for every other item.
   std::string pending_npz;
   std::int64_t pending_index = -1;
   bool ok() const { return error.empty(); }
