@@ -1,7 +1,7 @@
 // The gzip members of GzOutputStream (issue 19: each inflated whole with libdeflate on reading):
 // members that carry their size, read back by zlib and by GzInputStream; another writer's member
 // after ours read through zlib; damage and a cut between two members are read errors, not ends;
-// members that deflate barely shrinks are stored blocks.
+// members that deflate shrinks by less than half are stored blocks.
 #include <zlib.h>
 
 #include <cstdio>
@@ -200,7 +200,7 @@ int firstBlockType(const std::vector<unsigned char>& file, std::size_t at) {
   return (file[at + 24] >> 1) & 3;
 }
 
-TEST(GzBlocks, MembersDeflateBarelyShrinksAreStored) {
+TEST(GzBlocks, MembersDeflateShrinksByLessThanHalfAreStored) {
   testing::TempDir dir;
   const std::string path = dir.file("a.gz");
   // A compressible stretch, float noise across several members, then compressible again.
@@ -231,7 +231,7 @@ TEST(GzBlocks, MembersDeflateBarelyShrinksAreStored) {
       ++stored;
     } else if (no_noise) {
       EXPECT_NE(firstBlockType(file, at[m]), 0) << "compressible data is compressed";
-      EXPECT_LT(4 * (end - at[m]), 3 * isize);
+      EXPECT_LT(2 * (end - at[m]), isize);
       ++compressed;
     }
     begin += isize;
@@ -251,9 +251,10 @@ TEST(GzBlocks, MembersDeflateBarelyShrinksAreStored) {
   bool error = true;
   EXPECT_EQ(readAllOf(path, &error), data);
   EXPECT_FALSE(error);
-  // On either side of the threshold: 24 letters (zlib level 1: 0.65) stay deflated, 100 (0.84)
-  // are stored.
-  for (const auto& [symbols, expect_stored] : {std::pair<unsigned, bool>{24, false}, {100, true}}) {
+  // On either side of the threshold (half): 8 letters (zlib level 1: 0.46) stay deflated; 14
+  // (0.56) and 100 (0.84) are stored.
+  for (const auto& [symbols, expect_stored] :
+       {std::pair<unsigned, bool>{8, false}, {14, true}, {100, true}}) {
     SCOPED_TRACE(std::to_string(symbols) + " letters");
     const std::vector<unsigned char> text = randomText(200000, symbols, symbols);
     {

@@ -357,11 +357,11 @@ int GzOutputStream::flushBlock(bool last) {
   unsigned char* h = member_.data();
   const unsigned char header[16] = {0x1f, 0x8b, 8, 0x04, 0, 0, 0, 0, 0, 3, 12, 0, 'D', 'B', 8, 0};
   std::memcpy(h, header, sizeof header);
-  // Level 1 into three quarters of the member's size. When that does not fit (0), deflate saves
-  // less than a quarter and the member is written as stored blocks instead (libdeflate level 0;
-  // a libdeflate without it: level 1 after all).
+  // Level 1 into half the member's size. When that does not fit (0), deflate saves less than
+  // half and the member is written as stored blocks instead (libdeflate level 0; a libdeflate
+  // without it: level 1 after all).
   std::size_t n = libdeflate_deflate_compress(compressor_, pending_.data(), pending_.size(),
-                                              h + kHeaderBytes, 3 * pending_.size() / 4);
+                                              h + kHeaderBytes, pending_.size() / 2);
   if (n == 0)
     n = libdeflate_deflate_compress(store_ ? store_ : compressor_, pending_.data(), pending_.size(),
                                     h + kHeaderBytes, bound);
