@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include "gz_members.h"
 #include "gz_streams.h"
 #include "temp_dir.h"
 
@@ -20,6 +21,11 @@ namespace {
 
 using mrpt_bridge::GzInputStream;
 using mrpt_bridge::GzOutputStream;
+using testing::fileBytes;
+using testing::firstBlockType;
+using testing::load32;
+using testing::members;
+using testing::zlibReadAll;
 
 /// Random bytes of an alphabet of `symbols` letters: deflate leaves ≈ log2(symbols) / 8 of them.
 std::vector<unsigned char> randomText(std::size_t n, std::uint32_t seed, unsigned symbols) {
@@ -37,10 +43,6 @@ std::vector<unsigned char> letters(std::size_t n, std::uint32_t seed) {
   return randomText(n, seed, 4);
 }
 
-std::vector<unsigned char> fileBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::vector<unsigned char>(std::istreambuf_iterator<char>(in), {});
-}
 void putBytes(const std::string& path, const std::vector<unsigned char>& b) {
   std::ofstream(path, std::ios::binary)
       .write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
@@ -65,25 +67,6 @@ std::vector<unsigned char> readAllOf(const std::string& path, bool* error) {
   return out;
 }
 
-/// Offsets of the members in `file` (each starts with the 'DB' size subfield).
-std::vector<std::size_t> members(const std::vector<unsigned char>& file) {
-  std::vector<std::size_t> at;
-  for (std::size_t p = 0; p + 24 <= file.size();) {
-    EXPECT_EQ(file[p], 0x1f);
-    EXPECT_EQ(file[p + 12], 'D');
-    EXPECT_EQ(file[p + 13], 'B');
-    at.push_back(p);
-    const std::size_t size =
-        file[p + 16] | file[p + 17] << 8 | file[p + 18] << 16 | std::size_t{file[p + 19]} << 24;
-    if (size < 32) {
-      ADD_FAILURE() << "a member of " << size << " bytes at " << p;
-      break;
-    }
-    p += size;
-  }
-  return at;
-}
-
 std::vector<unsigned char> writeOurs(const std::string& path, std::size_t n) {
   const std::vector<unsigned char> data = letters(n, 99);
   GzOutputStream out(path, path);
@@ -104,14 +87,7 @@ TEST(GzBlocks, MembersCarryTheirSizeAndBothReadersReadThem) {
   EXPECT_EQ(at.size(), 16u);
   EXPECT_EQ(file[at.back() + 20] & 1, 1) << "the last member is marked";
   EXPECT_EQ(file[at.front() + 20] & 1, 0);
-  gzFile gz = gzopen(path.c_str(), "rb");
-  ASSERT_NE(gz, nullptr);
-  std::vector<unsigned char> back(data.size() + 10);
-  EXPECT_EQ(gzread(gz, back.data(), static_cast<unsigned>(back.size())),
-            static_cast<int>(data.size()));
-  gzclose(gz);
-  back.resize(data.size());
-  EXPECT_EQ(back, data);
+  EXPECT_EQ(zlibReadAll(path), data);
   bool error = true;
   EXPECT_EQ(readAllOf(path, &error), data);
   EXPECT_FALSE(error);
@@ -195,11 +171,6 @@ std::vector<unsigned char> floatNoise(std::size_t floats, std::uint32_t seed) {
   return b;
 }
 
-/// BTYPE of the first deflate block of the member at `at` (0 = stored, 1 fixed, 2 dynamic).
-int firstBlockType(const std::vector<unsigned char>& file, std::size_t at) {
-  return (file[at + 24] >> 1) & 3;
-}
-
 TEST(GzBlocks, MembersDeflateShrinksByLessThanHalfAreStored) {
   testing::TempDir dir;
   const std::string path = dir.file("a.gz");
@@ -220,8 +191,7 @@ TEST(GzBlocks, MembersDeflateShrinksByLessThanHalfAreStored) {
   std::size_t begin = 0, stored = 0, compressed = 0;
   for (std::size_t m = 0; m < at.size(); ++m) {
     const std::size_t end = m + 1 < at.size() ? at[m + 1] : file.size();
-    const std::size_t isize =
-        file[end - 4] | file[end - 3] << 8 | file[end - 2] << 16 | std::size_t{file[end - 1]} << 24;
+    const std::size_t isize = load32(file, end - 4);
     const bool all_noise = begin >= 300000 && begin + isize <= 1300000;
     const bool no_noise = begin + isize <= 300000 || begin >= 1300000;
     SCOPED_TRACE("member " + std::to_string(m) + " at " + std::to_string(begin));
@@ -240,14 +210,7 @@ TEST(GzBlocks, MembersDeflateShrinksByLessThanHalfAreStored) {
   EXPECT_GE(stored, 2u);
   EXPECT_GE(compressed, 4u);
   // zlib and GzInputStream read the mix back.
-  gzFile gz = gzopen(path.c_str(), "rb");
-  ASSERT_NE(gz, nullptr);
-  std::vector<unsigned char> back(data.size() + 10);
-  EXPECT_EQ(gzread(gz, back.data(), static_cast<unsigned>(back.size())),
-            static_cast<int>(data.size()));
-  gzclose(gz);
-  back.resize(data.size());
-  EXPECT_EQ(back, data);
+  EXPECT_EQ(zlibReadAll(path), data);
   bool error = true;
   EXPECT_EQ(readAllOf(path, &error), data);
   EXPECT_FALSE(error);

@@ -1,8 +1,6 @@
 // Rawlogs in and out: the snapshot observation class, the real rawlog-edit (with and without the
 // plugin), and the chain .npz → droid2rawlog → dba-covariance -o.
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -18,6 +16,7 @@
 #include "dbacov/mrpt/rawlog_io.h"
 #include "dbacov/sim/sensor_modes.h"
 #include "fixtures.h"
+#include "gz_members.h"
 #include "snapshot_compare.h"
 #include "temp_dir.h"
 
@@ -67,17 +66,9 @@ std::vector<mrpt::obs::CObservationRobotPose::Ptr> readPoses(const std::string& 
 /// How many of the file's gzip members (GzOutputStream's, with the 'DB' size subfield) start with
 /// a stored deflate block.
 int storedMembers(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  const std::vector<unsigned char> f(std::istreambuf_iterator<char>(in), {});
+  const std::vector<unsigned char> f = testing::fileBytes(path);
   int stored = 0;
-  for (std::size_t p = 0; p + 25 <= f.size();) {
-    if (f[p] != 0x1f || f[p + 12] != 'D' || f[p + 13] != 'B') return -1;
-    stored += ((f[p + 24] >> 1) & 3) == 0;
-    const std::size_t size =
-        f[p + 16] | f[p + 17] << 8 | f[p + 18] << 16 | std::size_t{f[p + 19]} << 24;
-    if (size < 32) return -1;
-    p += size;
-  }
+  for (const std::size_t at : testing::members(f)) stored += testing::firstBlockType(f, at) == 0;
   return stored;
 }
 
