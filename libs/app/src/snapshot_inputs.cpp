@@ -109,17 +109,10 @@ bool SnapshotStream::next(SnapshotItem* item) {
     }
     if (!isRawlogPath(file)) {
       ++file_;
-      if (defer_npz_) {
-        item->snapshot = Snapshot();  // none until loadPending (not a previous item's)
-        item->pending_npz = file;
-        item->pending_index = index_++;
-        return true;
-      }
-      try {
-        item->snapshot = io::loadSnapshotNpz(file, index_++);
-      } catch (const std::exception& e) {
-        setError(item, e, file);
-      }
+      item->snapshot = Snapshot();  // none until loadPending (not a previous item's)
+      item->pending_npz = file;
+      item->pending_index = index_++;
+      if (!defer_npz_) loadPending(item);  // else the caller's
       return true;
     }
     try {
