@@ -1,5 +1,7 @@
 // .npy parser and writer against NumPy (byte-identical output, values both ways) and against
 // hand-made broken inputs, with the largest allocation measured for hostile headers.
+#include <cmath>
+#include <cstring>
 #include <limits>
 
 #include <gtest/gtest.h>
@@ -39,7 +41,8 @@ std::string pyCaseList() {
 }
 
 /// An .npy byte stream with a hand-written header (no padding rules applied).
-std::vector<unsigned char> craft(const std::string& dict, const std::vector<unsigned char>& data,
+template <typename Bytes>
+std::vector<unsigned char> craft(const std::string& dict, const Bytes& data,
                                  unsigned char major = 1) {
   std::vector<unsigned char> out = {0x93, 'N', 'U', 'M', 'P', 'Y', major, 0};
   const std::size_t n = dict.size();
@@ -50,7 +53,7 @@ std::vector<unsigned char> craft(const std::string& dict, const std::vector<unsi
   out.insert(out.end(), data.begin(), data.end());
   return out;
 }
-const std::vector<unsigned char> kFiveFloats = referenceArray("<f4", {5}).data;
+const ByteVector kFiveFloats = referenceArray("<f4", {5}).data;
 
 TEST(Npy, SerializationIsByteIdenticalToNumpySave) {
   DBACOV_REQUIRE_NUMPY();
@@ -259,6 +262,33 @@ TEST(Npy, ConversionsAreStrictAboutDtypes) {
   NpyArray inconsistent = f4;
   inconsistent.data.pop_back();
   EXPECT_THROW(serializeNpy(inconsistent), std::invalid_argument);
+}
+
+TEST(Npy, ByteVectorZeroesNothingButKeepsEveryValueItIsGiven) {
+  // ByteVector only skips the zeroing of resize(n) / vector(n); every explicit value still lands.
+  ByteVector v(4, 7);
+  EXPECT_EQ(std::vector<unsigned char>(v.begin(), v.end()),
+            (std::vector<unsigned char>{7, 7, 7, 7}));
+  v.resize(6, 9);
+  v.insert(v.begin() + 1, {1, 2});
+  EXPECT_EQ(std::vector<unsigned char>(v.begin(), v.end()),
+            (std::vector<unsigned char>{7, 1, 2, 7, 7, 7, 9, 9}));
+  const ByteVector copy = v;
+  EXPECT_EQ(copy, v);
+  // Every conversion builds its vector straight from the bytes (ElementReader): same values as an
+  // element-by-element decode, for the same type (float32 → float) and for widening ones.
+  const float specials[] = {-0.0f, 1e-40f, std::numeric_limits<float>::max(), -3.5f, 0.25f};
+  const NpyArray f4 = makeNpy(std::vector<float>(std::begin(specials), std::end(specials)), {5});
+  const std::vector<float> as_floats = npyToFloats(f4, "k");
+  const std::vector<double> as_doubles = npyToDoubles(f4, "k");
+  ASSERT_EQ(as_floats.size(), 5u);
+  ASSERT_EQ(as_doubles.size(), 5u);
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_EQ(std::memcmp(&as_floats[i], &specials[i], sizeof(float)), 0) << i;  // -0 kept
+    EXPECT_EQ(as_doubles[i], static_cast<double>(specials[i])) << i;
+  }
+  EXPECT_TRUE(std::signbit(as_doubles[0]));
+  EXPECT_TRUE(npyToFloats(makeNpy(std::vector<float>{}, {0}), "k").empty());
 }
 
 }  // namespace

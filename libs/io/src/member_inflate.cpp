@@ -27,16 +27,15 @@ std::uint32_t crc32Of(const unsigned char* p, std::size_t n, std::uint32_t crc) 
   return libdeflate_crc32(crc, p, n);
 }
 
-InflatedMember inflateMember(const unsigned char* in, std::size_t n, std::uint64_t size,
-                             std::uint32_t crc, bool deflated) {
+InflatedMember inflateMember(ByteVector in, std::uint64_t size, std::uint32_t crc, bool deflated) {
   InflatedMember m;
   if (!deflated) {
-    m.bytes.assign(in, in + n);
+    m.bytes = std::move(in);
   } else {
-    m.bytes.resize(static_cast<std::size_t>(size));
+    m.bytes.resize(static_cast<std::size_t>(size));  // not zeroed: the inflater writes every byte
     std::size_t got = 0;
-    const libdeflate_result r = libdeflate_deflate_decompress(threadDecompressor(), in, n,
-                                                              m.bytes.data(), m.bytes.size(), &got);
+    const libdeflate_result r = libdeflate_deflate_decompress(
+        threadDecompressor(), in.data(), in.size(), m.bytes.data(), m.bytes.size(), &got);
     if (r == LIBDEFLATE_INSUFFICIENT_SPACE) {
       m.status = InflateStatus::TooLong;
       return m;

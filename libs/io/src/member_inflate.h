@@ -4,7 +4,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
-#include <vector>
+
+#include "dbacov/io/npy.h"
 
 namespace dbacov::io {
 
@@ -19,14 +20,13 @@ enum class InflateStatus {
 
 struct InflatedMember {
   InflateStatus status = InflateStatus::Ok;
-  std::vector<unsigned char> bytes;  ///< the uncompressed bytes (Ok, BadCrc, Short)
+  ByteVector bytes;  ///< the uncompressed bytes (Ok, BadCrc, Short)
 };
 
-/// Inflates the raw deflate stream `in` (n bytes) that should hold `size` bytes with CRC-32 `crc`
-/// (deflated = false: `in` is a stored member, only its CRC is checked). Thread-safe (one
-/// libdeflate decompressor per thread).
-InflatedMember inflateMember(const unsigned char* in, std::size_t n, std::uint64_t size,
-                             std::uint32_t crc, bool deflated);
+/// Inflates the raw deflate stream `in` that should hold `size` bytes with CRC-32 `crc`
+/// (deflated = false: `in` is a stored member, only its CRC is checked and `in` itself becomes
+/// the result). Thread-safe (one libdeflate decompressor per thread).
+InflatedMember inflateMember(ByteVector in, std::uint64_t size, std::uint32_t crc, bool deflated);
 
 /// CRC-32 (zip / gzip polynomial) of `n` bytes, continuing from `crc` (0 to start).
 std::uint32_t crc32Of(const unsigned char* p, std::size_t n, std::uint32_t crc = 0);

@@ -58,20 +58,97 @@ T loadValue(const unsigned char* p) {
   return v;
 }
 
+/// Reads consecutive little-endian elements (C++ type T, stored as U bits) as Out, so that a
+/// vector is built from the bytes in one pass (a range constructor), without the zero-filling
+/// pass that `std::vector<Out>(n)` and a copy would add.
+template <typename Out, typename T, typename U>
+class ElementReader {
+ public:
+  using iterator_category = std::random_access_iterator_tag;
+  using value_type = Out;
+  using difference_type = std::ptrdiff_t;
+  using pointer = const Out*;
+  using reference = Out;
+
+  explicit ElementReader(const unsigned char* p) : p_(p) {}
+  Out operator*() const {
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    if constexpr (std::is_same_v<Out, T>) {  // the file's bytes are the host's value
+      Out v;
+      std::memcpy(&v, p_, sizeof v);
+      return v;
+    }
+#endif
+    return static_cast<Out>(loadValue<T, U>(p_));
+  }
+  Out operator[](difference_type i) const {
+    return *(*this + i);
+  }
+  ElementReader& operator++() {
+    p_ += sizeof(T);
+    return *this;
+  }
+  ElementReader operator++(int) {
+    ElementReader old = *this;
+    ++*this;
+    return old;
+  }
+  ElementReader& operator--() {
+    p_ -= sizeof(T);
+    return *this;
+  }
+  ElementReader operator--(int) {
+    ElementReader old = *this;
+    --*this;
+    return old;
+  }
+  ElementReader& operator+=(difference_type d) {
+    p_ += d * static_cast<difference_type>(sizeof(T));
+    return *this;
+  }
+  ElementReader& operator-=(difference_type d) {
+    return *this += -d;
+  }
+  friend ElementReader operator+(ElementReader a, difference_type d) {
+    return a += d;
+  }
+  friend ElementReader operator+(difference_type d, ElementReader a) {
+    return a += d;
+  }
+  friend ElementReader operator-(ElementReader a, difference_type d) {
+    return a -= d;
+  }
+  friend difference_type operator-(const ElementReader& a, const ElementReader& b) {
+    return (a.p_ - b.p_) / static_cast<difference_type>(sizeof(T));
+  }
+  friend bool operator==(const ElementReader& a, const ElementReader& b) {
+    return a.p_ == b.p_;
+  }
+  friend bool operator!=(const ElementReader& a, const ElementReader& b) {
+    return a.p_ != b.p_;
+  }
+  friend bool operator<(const ElementReader& a, const ElementReader& b) {
+    return a.p_ < b.p_;
+  }
+  friend bool operator>(const ElementReader& a, const ElementReader& b) {
+    return b < a;
+  }
+  friend bool operator<=(const ElementReader& a, const ElementReader& b) {
+    return !(b < a);
+  }
+  friend bool operator>=(const ElementReader& a, const ElementReader& b) {
+    return !(a < b);
+  }
+
+ private:
+  const unsigned char* p_;
+};
+
 /// Decodes every element of `a` (of C++ type T, stored as U bits) into Out.
 template <typename Out, typename T, typename U>
 std::vector<Out> decodeAll(const NpyArray& a, std::size_t n) {
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
-  if constexpr (std::is_same_v<Out, T>) {  // the file's bytes are the host's values: one copy
-    std::vector<Out> out(n);
-    if (n) std::memcpy(out.data(), a.data.data(), n * sizeof(T));
-    return out;
-  }
-#endif
-  std::vector<Out> out(n);
-  for (std::size_t i = 0; i < n; ++i)
-    out[i] = static_cast<Out>(loadValue<T, U>(&a.data[i * sizeof(T)]));
-  return out;
+  const ElementReader<Out, T, U> first(a.data.data());
+  return std::vector<Out>(first, first + static_cast<std::ptrdiff_t>(n));
 }
 
 [[noreturn]] void wrongDtype(const NpyArray& a, const std::string& context, const char* expected) {
@@ -211,8 +288,7 @@ NpyArray readNpyStream(std::uint64_t available, const ByteReader& read,
   return a;
 }
 
-NpyArray parseNpyBuffer(std::vector<unsigned char> bytes, std::uint64_t available,
-                        const std::string& context) {
+NpyArray parseNpyBuffer(ByteVector bytes, std::uint64_t available, const std::string& context) {
   if (bytes.size() != available) {  // cut short: let the stream reader name what is missing
     std::size_t at = 0;
     return readNpyStream(

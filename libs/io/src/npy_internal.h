@@ -60,7 +60,6 @@ NpyArray readNpyStream(std::uint64_t available, const ByteReader& read, const st
 /// The same for a stream already in memory: `bytes` is what arrived of a container member that
 /// claims `available` bytes (fewer when it was cut short). Same checks and messages as
 /// readNpyStream; when complete, the data moves into the array without another buffer.
-NpyArray parseNpyBuffer(std::vector<unsigned char> bytes, std::uint64_t available,
-                        const std::string& context);
+NpyArray parseNpyBuffer(ByteVector bytes, std::uint64_t available, const std::string& context);
 
 }  // namespace dbacov::io

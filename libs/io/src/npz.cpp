@@ -147,8 +147,8 @@ bool NpzReader::has(const std::string& key) const {
 /// A member's raw (still compressed) bytes and what the archive records about it.
 struct NpzReader::RawMember {
   std::string key;
-  std::string context;  ///< "<path>: key '<key>'"
-  std::vector<unsigned char> raw;
+  std::string context;     ///< "<path>: key '<key>'"
+  ByteVector raw;          ///< the member's bytes as the archive holds them
   std::uint64_t size = 0;  ///< recorded uncompressed size
   std::uint32_t crc = 0;   ///< recorded CRC-32
   bool deflated = false;
@@ -201,7 +201,7 @@ NpzReader::RawMember NpzReader::fetch(const std::string& key) const {
   // (inflateMember), which is about twice as fast as libzip's streaming zlib.
   ZipFilePtr file(zip_fopen_index(za, idx, ZIP_FL_COMPRESSED));
   if (!file) fail(std::string("cannot open member: ") + zip_strerror(za));
-  m.raw.resize(static_cast<std::size_t>(st.comp_size));
+  m.raw.resize(static_cast<std::size_t>(st.comp_size));  // not zeroed: the reads fill it
   for (std::size_t done = 0; done < m.raw.size();) {
     const zip_int64_t got = zip_fread(file.get(), m.raw.data() + done, m.raw.size() - done);
     if (got < 0) fail(std::string("cannot read member: ") + zip_file_strerror(file.get()));
@@ -212,9 +212,8 @@ NpzReader::RawMember NpzReader::fetch(const std::string& key) const {
 }
 
 std::optional<NpyArray> NpzReader::decode(RawMember m) {
-  InflatedMember in = inflateMember(m.raw.data(), m.raw.size(), m.size, m.crc, m.deflated);
+  InflatedMember in = inflateMember(std::move(m.raw), m.size, m.crc, m.deflated);
   if (in.status != InflateStatus::Ok) return std::nullopt;
-  m.raw = std::vector<unsigned char>();
   return parseNpyBuffer(std::move(in.bytes), m.size, m.context);
 }
 
