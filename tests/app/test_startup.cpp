@@ -1,7 +1,12 @@
 // A run that reads and writes no MRPT format loads neither MRPT nor OpenCV (the MRPT bridge is
 // loaded on demand, bridge.h); one that writes a rawlog loads the bridge. Each test of this file
-// runs in a process of its own (ctest), which links no MRPT library.
+// runs in a process of its own (ctest), which links no MRPT library. And a run advises its heap
+// for transparent huge pages (allocator_reuse.h).
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -47,6 +52,53 @@ TEST(Startup, APoseRawlogLoadsTheBridgeOnDemand) {
   EXPECT_TRUE(mrpt_bridge::mrptBridgeLoaded());
   EXPECT_TRUE(mapped("libdbacov_mrpt.so"));
   EXPECT_TRUE(mapped("libmrpt-obs"));
+}
+
+/// The VmFlags of the mapping of this process that contains `address` ("" if none).
+std::string vmFlagsAt(std::uintptr_t address) {
+  std::ifstream smaps("/proc/self/smaps");
+  bool inside = false;
+  for (std::string line; std::getline(smaps, line);) {
+    std::uintptr_t lo = 0, hi = 0;
+    char dash = 0;
+    std::istringstream range(line);
+    if (range >> std::hex >> lo >> dash >> hi && dash == '-' &&
+        line.find(' ') != std::string::npos && line.find(':') > line.find(' ')) {
+      inside = address >= lo && address < hi;
+      continue;
+    }
+    if (inside && line.rfind("VmFlags:", 0) == 0) return line;
+  }
+  return "";
+}
+
+#if defined(__SANITIZE_ADDRESS__)
+#define DBACOV_OTHER_MALLOC 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define DBACOV_OTHER_MALLOC 1
+#endif
+#endif
+
+TEST(Startup, ARunAdvisesItsHeapForHugePages) {
+#if defined(DBACOV_OTHER_MALLOC) || !defined(__GLIBC__)
+  GTEST_SKIP() << "glibc's malloc only (the sanitizers bring their own)";
+#else
+  if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage"))
+    GTEST_SKIP() << "this kernel has no transparent huge pages";
+  testing::TempDir dir;
+  testing::writeTinySnapshot(dir.file("a.npz"), 1, 0);
+  const auto r = testing::runApp(app::runCovarianceApp, "dba-covariance",
+                                 {"-i", dir.file("a.npz"), "--csv", dir.file("k.csv"), "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  // A snapshot-sized block now comes from the heap's advised part: "hg" (MADV_HUGEPAGE) among
+  // the flags of its mapping.
+  void* block = std::malloc(std::size_t{8} << 20);
+  ASSERT_NE(block, nullptr);
+  const std::string flags = vmFlagsAt(reinterpret_cast<std::uintptr_t>(block) + (4u << 20));
+  std::free(block);
+  EXPECT_NE(flags.find(" hg"), std::string::npos) << flags;
+#endif
 }
 
 }  // namespace
