@@ -264,8 +264,9 @@ TEST(Npy, ConversionsAreStrictAboutDtypes) {
   EXPECT_THROW(serializeNpy(inconsistent), std::invalid_argument);
 }
 
-TEST(Npy, ByteVectorZeroesNothingButKeepsEveryValueItIsGiven) {
-  // ByteVector only skips the zeroing of resize(n) / vector(n); every explicit value still lands.
+TEST(Npy, ByteVectorKeepsEveryValueItIsGiven) {
+  // ByteVector only skips the zeroing of resize(n) / vector(n) (npy.h asserts at compile time
+  // that its allocator survives rebinding); every explicit value still lands.
   ByteVector v(4, 7);
   EXPECT_EQ(std::vector<unsigned char>(v.begin(), v.end()),
             (std::vector<unsigned char>{7, 7, 7, 7}));

@@ -1,7 +1,6 @@
 // Whole-member inflation (libdeflate, issue 19) against NumPy's own bytes, damaged deflate streams
 // with libzip's messages, the first failure in key order when members inflate in parallel, and
 // the block-wise non-finite scan of Snapshot::validate on the real DROID snapshot.
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -36,8 +35,8 @@ TEST(NpzInflate, EveryMemberOfTheSharedSnapshotIsNumpysBytesOnOneAndTwoThreads) 
     ASSERT_EQ(all.size(), keys.size());
     for (std::size_t k = 0; k < keys.size(); ++k) {
       SCOPED_TRACE(keys[k]);
-      const std::vector<unsigned char> numpy = readBytes(dir.file(keys[k] + ".bin"));
-      EXPECT_TRUE(std::equal(all[k].data.begin(), all[k].data.end(), numpy.begin(), numpy.end()));
+      EXPECT_EQ(std::vector<unsigned char>(all[k].data.begin(), all[k].data.end()),
+                readBytes(dir.file(keys[k] + ".bin")));
       EXPECT_EQ(npz.read(keys[k]).data, all[k].data);
     }
   }

@@ -38,6 +38,7 @@ InflatedMember inflateMember(ByteVector in, std::uint64_t size, std::uint32_t cr
         threadDecompressor(), in.data(), in.size(), m.bytes.data(), m.bytes.size(), &got);
     if (r == LIBDEFLATE_INSUFFICIENT_SPACE) {
       m.status = InflateStatus::TooLong;
+      m.bytes.clear();  // never read; and not all of it was written
       return m;
     }
     if (r != LIBDEFLATE_SUCCESS) {

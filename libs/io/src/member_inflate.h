@@ -20,7 +20,7 @@ enum class InflateStatus {
 
 struct InflatedMember {
   InflateStatus status = InflateStatus::Ok;
-  ByteVector bytes;  ///< the uncompressed bytes (Ok, BadCrc, Short)
+  ByteVector bytes;  ///< the uncompressed bytes (Ok, BadCrc, Short; empty otherwise)
 };
 
 /// Inflates the raw deflate stream `in` that should hold `size` bytes with CRC-32 `crc`

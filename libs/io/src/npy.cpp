@@ -60,7 +60,7 @@ T loadValue(const unsigned char* p) {
 
 /// Reads consecutive little-endian elements (C++ type T, stored as U bits) as Out, so that a
 /// vector is built from the bytes in one pass (a range constructor), without the zero-filling
-/// pass that `std::vector<Out>(n)` and a copy would add.
+/// pass that `std::vector<Out>(n)` and a copy would add. A proxy iterator: `reference` is a value.
 template <typename Out, typename T, typename U>
 class ElementReader {
  public:
@@ -70,6 +70,7 @@ class ElementReader {
   using pointer = const Out*;
   using reference = Out;
 
+  ElementReader() = default;
   explicit ElementReader(const unsigned char* p) : p_(p) {}
   Out operator*() const {
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
@@ -141,7 +142,7 @@ class ElementReader {
   }
 
  private:
-  const unsigned char* p_;
+  const unsigned char* p_ = nullptr;
 };
 
 /// Decodes every element of `a` (of C++ type T, stored as U bits) into Out.
