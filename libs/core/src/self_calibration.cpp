@@ -157,11 +157,15 @@ struct SourceTerms {
   RowMatrix B;               ///< 6T × HW, every pixel's depth column (rows along pixels)
 };
 
+/// One row (pixel, axis) of an edge. Only ∂r/∂ξ_j is kept: ∂r/∂ξ_i = −J_j Ad(T_ji) (as in the
+/// kernel, dba_kernel.h), so the row's 12 pose coordinates are u = Eᵀ w with w = √λ J_jᵀ and the
+/// edge's E = [−Ad(T_ji) | I] (6 × 12), and every per-row sum below runs on the 6 entries of w.
 struct Row {
   int pixel, channel;
   double lam, r, jd;
-  Eigen::Matrix<double, 1, 6> Ji, Jj;
+  Eigen::Matrix<double, 1, 6> Jj;
 };
+using Matrix6x12 = Eigen::Matrix<double, 6, 12>;
 
 /// The tapered sum of the 2-D autocorrelation of the fields z[c] (mask: rows present).
 double autocorrelationSum(const std::vector<double> z[2], const std::vector<char> mask[2], int H,
@@ -266,11 +270,14 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         Sig.block<6, 6>(6 * a, 6 * b) = m.Sigma.block<6, 6>(6 * touched[a], 6 * touched[b]);
     std::vector<Eigen::Matrix3d> R(Q);
     std::vector<Eigen::Vector3d> t(Q);
+    std::vector<Matrix6x12> Em(Q);  // E = [−Ad(T_ji) | I]: u = Eᵀ w
     const Eigen::Isometry3d T_wc_i = s.T_wc(src);
     for (int q = 0; q < Q; ++q) {
       const Eigen::Isometry3d T_ji = s.T_cw(static_cast<int>(s.jj[edges[q]])) * T_wc_i;
       R[q] = T_ji.linear();
       t[q] = T_ji.translation();
+      Em[q].leftCols<6>() = -adjoint(T_ji);
+      Em[q].rightCols<6>().setIdentity();
     }
 
     // Rows of every edge, and the depth terms h, b of every pixel.
@@ -280,35 +287,53 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     for (auto& f : first_rows) f.reserve(static_cast<std::size_t>(HW) + 1);
     std::vector<double> h(HW, 0.0), gd(HW, 0.0);  // depth information and gradient Σ λ J_d r
     Eigen::MatrixXd B = Eigen::MatrixXd::Zero(6 * T, HW);
-    PixelFactorLinearization f;
+    // The pixels' depth columns B_p = Σ λ J_d [J_i | J_j]ᵀ: the target slot's half Σ λ J_d J_jᵀ
+    // per edge (Bj, one 6 × HW block per edge, added to B below), the source slot's half
+    // −Ad(T_ji)ᵀ times it (one 6 × 6 × HW product per edge).
+    Eigen::MatrixXd Bj = Eigen::MatrixXd::Zero(6 * Q, HW);
     for (int p = 0; p < HW; ++p) {
       const double d = s.disps[static_cast<std::size_t>(src) * HW + p];
       if (!(d > 0)) continue;
       const double x = p % s.W, y = p / s.W;
+      const Eigen::Vector3d ray((x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0);
       for (int q = 0; q < Q; ++q) {
         const int e = edges[q];
         const double lam[2] = {o.weight_scale * s.weightPlane(e, 0)[p],
                                o.weight_scale * s.weightPlane(e, 1)[p]};
         if (!(lam[0] > 0 || lam[1] > 0)) continue;
-        const Eigen::Vector3d Y = transferPoint(R[q], t[q], K, x, y, d);
+        const Eigen::Vector3d Y = R[q] * ray + t[q] * d;
         if (!keepPixelFactor(o, d, Y.z())) continue;
-        linearizePixelFactor(R[q], t[q], K, x, y, d, s.targetPlane(e, 0)[p], s.targetPlane(e, 1)[p],
-                             &f);
+        // linearizePixelFactor's residual, J_j and J_d (its J_i is not needed, above).
+        const double iz = 1.0 / Y.z();
+        const double m0[3] = {-K.fx * iz, 0.0, K.fx * Y.x() * iz * iz};
+        const double m1[3] = {0.0, -K.fy * iz, K.fy * Y.y() * iz * iz};
+        const double res[2] = {s.targetPlane(e, 0)[p] - (K.fx * Y.x() * iz + K.cx),
+                               s.targetPlane(e, 1)[p] - (K.fy * Y.y() * iz + K.cy)};
         first_rows[q].push_back(static_cast<int>(rows[q].size()));
+        double* bj = &Bj(6 * q, p);
         for (int c = 0; c < 2; ++c) {
           if (!(lam[c] > 0)) continue;
-          Row r{p, c, lam[c], f.r[c], f.J_d[c], f.J_i.row(c), f.J_j.row(c)};
+          const double* m = c == 0 ? m0 : m1;
+          Row r;
+          r.pixel = p;
+          r.channel = c;
+          r.lam = lam[c];
+          r.r = res[c];
+          r.jd = m[0] * t[q].x() + m[1] * t[q].y() + m[2] * t[q].z();
+          // [−d·m, m·hat(Y)] with m·hat(Y) = (m × Y)ᵀ
+          r.Jj << -d * m[0], -d * m[1], -d * m[2], m[1] * Y.z() - m[2] * Y.y(),
+              m[2] * Y.x() - m[0] * Y.z(), m[0] * Y.y() - m[1] * Y.x();
           h[p] += lam[c] * r.jd * r.jd;
           gd[p] += lam[c] * r.jd * r.r;
-          double* bp = &B(0, p);  // (plain loops: Eigen left these two as calls)
           const double lj = lam[c] * r.jd;
-          for (int i = 0; i < 6; ++i) {
-            bp[i] += lj * r.Ji[i];
-            bp[6 * tpos[q] + i] += lj * r.Jj[i];
-          }
+          for (int i = 0; i < 6; ++i) bj[i] += lj * r.Jj[i];
           rows[q].push_back(r);
         }
       }
+    }
+    for (int q = 0; q < Q; ++q) {
+      B.middleRows<6>(6 * tpos[q]) += Bj.middleRows<6>(6 * q);
+      B.topRows<6>().noalias() += Em[q].leftCols<6>().transpose() * Bj.middleRows<6>(6 * q);
     }
     // The factors on the depths alone (stereo edges, RGB-D sensor depths): information and
     // gradient of the pixel's depth, as linearizeDba adds them before eliminating it.
@@ -361,24 +386,31 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       std::vector<int>& first_row = first_rows[q];  // the edge's pixels (rows come pixel by pixel)
       const int P = static_cast<int>(first_row.size());
       first_row.push_back(M);
-      // The rows' u_k, one column each (stored row by row: Σ u uᵀ is then one product in
-      // dot-product form instead of 12 × 12 per row), c_k, and the per-pixel sums.
-      Eigen::Matrix<double, 12, Eigen::Dynamic, Eigen::RowMajor> Um(12, M);
+      // Everything per row and pixel runs on w_k = √λ J_jᵀ (u_k = Eᵀ w_k, Row) and is mapped to
+      // the 12 coordinates by E once per edge: Σ u uᵀ = Eᵀ (Σ w wᵀ) E, uᵀ x = wᵀ (E x).
+      const Matrix6x12& E12 = Em[q];
+      const Matrix6d S6 = E12 * S12 * E12.transpose();
+      // The rows' w_k, one column each (stored row by row: Σ w wᵀ is then one product in
+      // dot-product form instead of 6 × 6 per row), c_k, and the per-pixel sums.
+      Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor> Wm(6, M);
       Eigen::VectorXd sr(M), cr(M), lev(M);
-      // Σ_k c_k u_k per pixel; the pixels' B_p (gathered only where I_e or C_p are formed).
+      // Σ_k c_k w_k per pixel; the pixels' B_p (gathered only where I_e or C_p are formed).
       const bool form_I = !nuisance || info_metric, score_terms = form_I;
-      Eigen::MatrixXd Acr(12, P), Bp(6 * T, form_I ? P : 0);
+      Eigen::Matrix<double, 6, Eigen::Dynamic> Acr(6, P);
+      Eigen::MatrixXd Bp(6 * T, form_I ? P : 0);
       Eigen::VectorXd wsq(P);  // √(Σ c_k²) per pixel
       Eigen::VectorXd gamma(P), hk(P);
-      Eigen::Matrix<double, 12, Eigen::Dynamic> alpha(12, P);  // Σ √λ J_d u_k per pixel
-      Eigen::VectorXd beta(P);                                 // Σ √λ J_d c_k per pixel
+      Eigen::Matrix<double, 6, Eigen::Dynamic> alpha(6, P);  // Σ √λ J_d w_k per pixel
+      Eigen::VectorXd beta(P);                               // Σ √λ J_d c_k per pixel
+      // (Σ c_k u_k)ᵀ (ΣB_p)_idx and (Σ √λ J_d u_k)ᵀ (ΣB_p)_idx per pixel, as wᵀ E (ΣB_p)_idx.
+      Eigen::VectorXd acr_sb(P), al_sb(P);
       // Nuisance: the field's whitened columns φ_k = √λ Φ(x, y) on the row's channel, on each
       // pixel's active coordinates. Per spline cell and channel the sums run on the pixels'
       // monomials m (the active values are T_cell m): Σ √λ u mᵀ (12 × 4), Σ λ m mᵀ and the
       // score's Σ m (√λ r − depth's share), mapped to the cell's active coordinates by T_cell
       // once per cell (below); per pixel the depth's share b_c = Σ_{rows of channel c} λ J_d.
       const int ncell = nuisance ? nuisance->cells() : 0;
-      std::vector<Eigen::Matrix<double, 12, kMono>> CUm(2 * ncell);
+      std::vector<Eigen::Matrix<double, 6, kMono>> CUm(2 * ncell);
       std::vector<Eigen::Matrix<double, kMono, kMono>> Nm(2 * ncell);
       std::vector<Eigen::Matrix<double, kMono, 1>> tm(2 * ncell);
       for (int ic = 0; ic < 2 * ncell; ++ic) {
@@ -392,18 +424,18 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         const double hp = h[px];
         const bool reduced = hp > o.depth_info_eps;
         hk[pix] = hp;
-        Vector12d sb;
-        for (int i = 0; i < 12; ++i) sb[i] = SB(idx[i], px);
-        Vector12d acr = Vector12d::Zero(), al = Vector12d::Zero();
+        Vector12d sb12;
+        for (int i = 0; i < 12; ++i) sb12[i] = SB(idx[i], px);
+        const Vector6d sb = E12 * sb12;
+        Vector6d acr = Vector6d::Zero(), al = Vector6d::Zero();
         double w = 0, gam = 0, be = 0;
         double bc[2] = {0.0, 0.0};  // nuisance: Σ λ J_d per channel
         const double* mono = nuisance ? &field.mono[static_cast<std::size_t>(kMono) * px] : nullptr;
         for (int k = first_row[pix]; k < first_row[pix + 1]; ++k) {
           const Row& r = rq[k];
           const double sl = std::sqrt(r.lam);
-          Vector12d u;
-          u << sl * r.Ji.transpose(), sl * r.Jj.transpose();
-          Um.col(k) = u;
+          const Vector6d u = sl * r.Jj.transpose();
+          Wm.col(k) = u;
           const double c = reduced ? sl * r.jd / hp : 0.0;
           cr[k] = c;
           sr[k] = sl * r.r;
@@ -438,25 +470,28 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           }
         }
         Acr.col(pix) = acr;
+        acr_sb[pix] = acr.dot(sb);
+        al_sb[pix] = al.dot(sb);
         if (form_I) Bp.col(pix) = B.col(px);
         wsq[pix] = std::sqrt(w);
         gamma[pix] = gam;
         alpha.col(pix) = al;
         beta[pix] = be;
       }
-      // Σ u uᵀ in dot-product form on the rows of Um, written row-major below the diagonal,
-      // i.e. above it in Matrix12d's column order.
-      Matrix12d Auu = Matrix12d::Zero();
-      kernel::gemmNT(12, 12, M, Um.data(), M, Um.data(), M, Auu.data(), 12, true);
-      Auu = Auu.selfadjointView<Eigen::Upper>();
-      // The leverages' u_kᵀ Σ₁₂ u_k: per row only where the rows' own leverages are used (the
-      // autocorrelation's whitened residuals); their sum is tr(Σ₁₂ Σ u uᵀ).
+      // Σ w wᵀ in dot-product form on the rows of Wm, written row-major below the diagonal,
+      // i.e. above it in Matrix6d's column order; Σ u uᵀ = Eᵀ (Σ w wᵀ) E.
+      Matrix6d Aww = Matrix6d::Zero();
+      kernel::gemmNT(6, 6, M, Wm.data(), M, Wm.data(), M, Aww.data(), 6, true);
+      Aww = Aww.selfadjointView<Eigen::Upper>();
+      const Matrix12d Auu = E12.transpose() * Aww * E12;
+      // The leverages' u_kᵀ Σ₁₂ u_k = w_kᵀ S6 w_k: per row only where the rows' own leverages are
+      // used (the autocorrelation's whitened residuals); their sum is tr(S6 Σ w wᵀ).
       double uSu = 0;
       if (autocorr)
-        lev += ((S12 * Um).cwiseProduct(Um)).colwise().sum().transpose();
+        lev += ((S6 * Wm).cwiseProduct(Wm)).colwise().sum().transpose();
       else
-        uSu = S12.cwiseProduct(Auu).sum();
-      const Vector12d gu = Um * sr;
+        uSu = S6.cwiseProduct(Aww).sum();
+      const Vector12d gu = E12.transpose() * (Wm * sr);
       a.rows = M;
       a.pixels = P;
       a.q = sr.squaredNorm();
@@ -479,7 +514,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         I = Eigen::MatrixXd::Zero(6 * T, 6 * T);
         I.selfadjointView<Eigen::Lower>().rankUpdate(Bp * wsq.asDiagonal());
         I = I.selfadjointView<Eigen::Lower>();
-        const Eigen::MatrixXd cross = Acr * Bp.transpose();  // 12 × 6T
+        const Eigen::MatrixXd cross = E12.transpose() * (Acr * Bp.transpose());  // 12 × 6T
         for (int i = 0; i < 12; ++i) {
           I.row(idx[i]) -= cross.row(i);
           I.col(idx[i]) -= cross.row(i).transpose();
@@ -489,12 +524,10 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.tr_SI = SI.trace();
         a.tr_SISI = SI.cwiseProduct(SI.transpose()).sum();
       } else {
-        double tr = S12.cwiseProduct(Auu).sum();
+        double tr = uSu;
         for (int pix = 0; pix < P; ++pix) {
           const int px = rq[first_row[pix]].pixel;
-          double aSB = 0;
-          for (int i = 0; i < 12; ++i) aSB += Acr(i, pix) * SB(idx[i], px);
-          tr += wsq[pix] * wsq[pix] * bSb[px] - 2 * aSB;
+          tr += wsq[pix] * wsq[pix] * bSb[px] - 2 * acr_sb[pix];
         }
         a.tr_SI = tr;
       }
@@ -504,22 +537,19 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.gSg = g.dot(Sig * g);
         // The depth's share: C_p = Σ_k √λ J_d v_k = α_p − β_p B_p (pixels with depth
         // information); Σ_p α_pᵀ Σ₁₂ α_p / h_p as tr(Σ₁₂ Σ_p α_p α_pᵀ / h_p), one rank update.
-        Eigen::Matrix<double, 12, Eigen::Dynamic> alpha_h(12, P);
+        Eigen::Matrix<double, 6, Eigen::Dynamic> alpha_h(6, P);
         for (int pix = 0; pix < P; ++pix) {
           if (!(hk[pix] > o.depth_info_eps)) {
             alpha_h.col(pix).setZero();
             continue;
           }
           const int px = rq[first_row[pix]].pixel;
-          const Vector12d al = alpha.col(pix);
-          alpha_h.col(pix) = al / std::sqrt(hk[pix]);
-          double aSB = 0;
-          for (int i = 0; i < 12; ++i) aSB += al[i] * SB(idx[i], px);
-          a.tr_SD += (beta[pix] * beta[pix] * bSb[px] - 2 * beta[pix] * aSB) / hk[pix];
+          alpha_h.col(pix) = alpha.col(pix) / std::sqrt(hk[pix]);
+          a.tr_SD += (beta[pix] * beta[pix] * bSb[px] - 2 * beta[pix] * al_sb[pix]) / hk[pix];
         }
-        Matrix12d Aal = Matrix12d::Zero();
+        Matrix6d Aal = Matrix6d::Zero();
         Aal.selfadjointView<Eigen::Lower>().rankUpdate(alpha_h);
-        a.tr_SD += S12.cwiseProduct(Matrix12d(Aal.selfadjointView<Eigen::Lower>())).sum();
+        a.tr_SD += S6.cwiseProduct(Matrix6d(Aal.selfadjointView<Eigen::Lower>())).sum();
       }
       // The same statistic in the edge's own information metric: g_eᵀ I_e⁺ g_e, expectation
       // rank(I_e) − tr(I_e⁺ D_e) − tr(Σ I_e), with tr(I_e⁺ D_e) = tr(I_e⁺ X), X = Σ_p C_p C_pᵀ /
@@ -542,7 +572,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           if (!(hk[pix] > o.depth_info_eps)) continue;
           const double sh = 1.0 / std::sqrt(hk[pix]);
           Cm.col(pix) = -beta[pix] * sh * Bp.col(pix);
-          for (int i = 0; i < 12; ++i) Cm(idx[i], pix) += sh * alpha(i, pix);
+          const Vector12d al = E12.transpose() * alpha.col(pix);
+          for (int i = 0; i < 12; ++i) Cm(idx[i], pix) += sh * al[i];
         }
         a.expected_info = rank - (U.transpose() * Cm).squaredNorm() - a.tr_SI;
       }
@@ -560,7 +591,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
           const int* act = &field.index[static_cast<std::size_t>(field.pixels_of_cell[ci][0]) * na];
           for (int c = 0; c < 2; ++c) {
             const int ic = 2 * ci + c;
-            const Eigen::Matrix<double, 12, kMaxActive> cu = CUm[ic] * Tc.transpose();
+            const Eigen::Matrix<double, 12, kMaxActive> cu =
+                E12.transpose() * (CUm[ic] * Tc.transpose());
             const ActiveMatrix nn = Tc * Nm[ic] * Tc.transpose();
             const Eigen::Matrix<double, kMaxActive, 1> tt = Tc * tm[ic];
             for (int u = 0; u < na; ++u) {
@@ -577,11 +609,11 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.idx = idx;
         a.Auu = Auu;
         {
-          RowMatrix acr_all = RowMatrix::Zero(12, HW);  // the edge's acr_p on every pixel
+          RowMatrix acr_all = RowMatrix::Zero(6, HW);  // the edge's Σ c w on every pixel
           for (int pix = 0; pix < P; ++pix) acr_all.col(rq[first_row[pix]].pixel) = Acr.col(pix);
-          RowMatrix cross = RowMatrix::Zero(12, 6 * T);
-          kernel::gemmNT(12, 6 * T, HW, acr_all.data(), HW, B_rows.data(), HW, cross.data(), 6 * T);
-          a.cross = cross;
+          RowMatrix cross = RowMatrix::Zero(6, 6 * T);
+          kernel::gemmNT(6, 6 * T, HW, acr_all.data(), HW, B_rows.data(), HW, cross.data(), 6 * T);
+          a.cross = E12.transpose() * cross;
         }
         a.w = wsq.cwiseAbs2();
         a.pixel_of.resize(P);
