@@ -346,10 +346,10 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
 
     // Every depth-reduced row is v_k = u_k − c_k B_p (u_k = √λ [J_i | J_j] on two slots, c_k =
     // √λ J_d / h_p, B_p the pixel's depth column shared by all its rows), so the products with
-    // Σ are done once per source (ΣB) and per row on 12 entries, and the edge's 6T × 6T sums are
-    // a 12 × 12 block, a 12 × 6T cross term and one rank update over the edge's pixels, instead of
-    // dense 6T × rows products (≈ 10× fewer flops on DROID-sized windows).
-    // (The products over pixels here and below run in dot-product form, dot_products.h.)
+    // Σ are done once per source (ΣB) and per row on the 6 entries of w (Row), and the edge's 6T ×
+    // 6T sums are a 12 × 12 block, a 12 × 6T cross term and one rank update over the edge's pixels,
+    // instead of dense 6T × rows products (≈ 10× fewer flops on DROID-sized windows). (The products
+    // over pixels here and below run in dot-product form, dot_products.h.)
     Eigen::MatrixXd SB = Eigen::MatrixXd::Zero(6 * T, HW);  // column p: Σ B_p
     kernel::gemmNT(HW, 6 * T, 6 * T, B.data(), 6 * T, Sig.data(), 6 * T, SB.data(), 6 * T);
     // Nuisance: B with its rows along the pixels, for the cross terms X_e and SourceTerms.
@@ -406,8 +406,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       Eigen::VectorXd acr_sb(P), al_sb(P);
       // Nuisance: the field's whitened columns φ_k = √λ Φ(x, y) on the row's channel, on each
       // pixel's active coordinates. Per spline cell and channel the sums run on the pixels'
-      // monomials m (the active values are T_cell m): Σ √λ u mᵀ (12 × 4), Σ λ m mᵀ and the
-      // score's Σ m (√λ r − depth's share), mapped to the cell's active coordinates by T_cell
+      // monomials m (the active values are T_cell m): Σ √λ w mᵀ (6 × 4, mapped by Eᵀ), Σ λ m mᵀ and
+      // the score's Σ m (√λ r − depth's share), mapped to the cell's active coordinates by T_cell
       // once per cell (below); per pixel the depth's share b_c = Σ_{rows of channel c} λ J_d.
       const int ncell = nuisance ? nuisance->cells() : 0;
       std::vector<Eigen::Matrix<double, 6, kMono>> CUm(2 * ncell);
@@ -434,7 +434,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         for (int k = first_row[pix]; k < first_row[pix + 1]; ++k) {
           const Row& r = rq[k];
           const double sl = std::sqrt(r.lam);
-          const Vector6d u = sl * r.Jj.transpose();
+          const Vector6d u = sl * r.Jj.transpose();  // w_k (u_k = Eᵀ w_k)
           Wm.col(k) = u;
           const double c = reduced ? sl * r.jd / hp : 0.0;
           cr[k] = c;
@@ -507,8 +507,9 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       }
       for (int i = 0; i < 12; ++i) g[idx[i]] += gu[i];
       // The nuisance method needs I only as Σ_e (s_e − 1) I_e, formed per source once the s_e
-      // are known (nuisanceCovariance), and tr(Σ I) from I's factors: tr(Σ₁₂ Auu) −
-      // 2 Σ_p acr_pᵀ (ΣB_p)_idx + Σ_p w_p B_pᵀ Σ B_p. The other methods need I itself.
+      // are known (nuisanceCovariance), and tr(Σ I) from I's factors: tr(S6 Σ w wᵀ) −
+      // 2 Σ_p acr_pᵀ E (ΣB_p)_idx + Σ_p w_p B_pᵀ Σ B_p (acr_p = Σ c w, 6 entries). The other
+      // methods need I itself.
       Eigen::MatrixXd I;
       if (form_I) {
         I = Eigen::MatrixXd::Zero(6 * T, 6 * T);
@@ -524,7 +525,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.tr_SI = SI.trace();
         a.tr_SISI = SI.cwiseProduct(SI.transpose()).sum();
       } else {
-        double tr = uSu;
+        double tr = S6.cwiseProduct(Aww).sum();  // (uSu is 0 when the rows' leverages hold it)
         for (int pix = 0; pix < P; ++pix) {
           const int px = rq[first_row[pix]].pixel;
           tr += wsq[pix] * wsq[pix] * bSb[px] - 2 * acr_sb[pix];
@@ -536,7 +537,8 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       if (score_terms) {
         a.gSg = g.dot(Sig * g);
         // The depth's share: C_p = Σ_k √λ J_d v_k = α_p − β_p B_p (pixels with depth
-        // information); Σ_p α_pᵀ Σ₁₂ α_p / h_p as tr(Σ₁₂ Σ_p α_p α_pᵀ / h_p), one rank update.
+        // information; α_p lifted by Eᵀ); Σ_p α_pᵀ S6 α_p / h_p as tr(S6 Σ_p α_p α_pᵀ / h_p), one
+        // rank update on the 6-entry α_p.
         Eigen::Matrix<double, 6, Eigen::Dynamic> alpha_h(6, P);
         for (int pix = 0; pix < P; ++pix) {
           if (!(hk[pix] > o.depth_info_eps)) {
@@ -844,8 +846,10 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
   // with X_g = Cv⁻¹ B_g. The scores come first (one product for Cv⁻¹ = L⁻ᵀL⁻¹ per edge, the
   // rest is quadratic); the X_g, one product each, only for the coordinates that the step can
   // move (θ_g > 0 or a positive score: fisherStep's free set, the only entries it reads).
+  // (info is only formed together with score: its free set needs the summed score.)
   const auto evaluate = [&](const Eigen::VectorXd& th, Eigen::VectorXd* score,
                             Eigen::MatrixXd* info) {
+    if (info && !score) throw std::logic_error("nuisance likelihood: information without score");
     // One variance component above zero (the others held there): every term is diagonal in
     // that group's eigenbasis (formed once per edge and group, then O(r²) per evaluation instead
     // of O(r³)); the information is then only needed on the free coordinates, as below.
