@@ -291,38 +291,24 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     // per edge (Bj, one 6 × HW block per edge, added to B below), the source slot's half
     // −Ad(T_ji)ᵀ times it (one 6 × 6 × HW product per edge).
     Eigen::MatrixXd Bj = Eigen::MatrixXd::Zero(6 * Q, HW);
+    PixelFactorLinearization f;  // (its J_i is not formed: above)
     for (int p = 0; p < HW; ++p) {
       const double d = s.disps[static_cast<std::size_t>(src) * HW + p];
       if (!(d > 0)) continue;
       const double x = p % s.W, y = p / s.W;
-      const Eigen::Vector3d ray((x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0);
       for (int q = 0; q < Q; ++q) {
         const int e = edges[q];
         const double lam[2] = {o.weight_scale * s.weightPlane(e, 0)[p],
                                o.weight_scale * s.weightPlane(e, 1)[p]};
         if (!(lam[0] > 0 || lam[1] > 0)) continue;
-        const Eigen::Vector3d Y = R[q] * ray + t[q] * d;
+        const Eigen::Vector3d Y = transferPoint(R[q], t[q], K, x, y, d);
         if (!keepPixelFactor(o, d, Y.z())) continue;
-        // linearizePixelFactor's residual, J_j and J_d (its J_i is not needed, above).
-        const double iz = 1.0 / Y.z();
-        const double m0[3] = {-K.fx * iz, 0.0, K.fx * Y.x() * iz * iz};
-        const double m1[3] = {0.0, -K.fy * iz, K.fy * Y.y() * iz * iz};
-        const double res[2] = {s.targetPlane(e, 0)[p] - (K.fx * Y.x() * iz + K.cx),
-                               s.targetPlane(e, 1)[p] - (K.fy * Y.y() * iz + K.cy)};
+        linearizePixelFactorAt(Y, t[q], K, d, s.targetPlane(e, 0)[p], s.targetPlane(e, 1)[p], &f);
         first_rows[q].push_back(static_cast<int>(rows[q].size()));
         double* bj = &Bj(6 * q, p);
         for (int c = 0; c < 2; ++c) {
           if (!(lam[c] > 0)) continue;
-          const double* m = c == 0 ? m0 : m1;
-          Row r;
-          r.pixel = p;
-          r.channel = c;
-          r.lam = lam[c];
-          r.r = res[c];
-          r.jd = m[0] * t[q].x() + m[1] * t[q].y() + m[2] * t[q].z();
-          // [−d·m, m·hat(Y)] with m·hat(Y) = (m × Y)ᵀ
-          r.Jj << -d * m[0], -d * m[1], -d * m[2], m[1] * Y.z() - m[2] * Y.y(),
-              m[2] * Y.x() - m[0] * Y.z(), m[0] * Y.y() - m[1] * Y.x();
+          Row r{p, c, lam[c], f.r[c], f.J_d[c], f.J_j.row(c)};
           h[p] += lam[c] * r.jd * r.jd;
           gd[p] += lam[c] * r.jd * r.r;
           const double lj = lam[c] * r.jd;
@@ -486,11 +472,12 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       const Matrix12d Auu = E12.transpose() * Aww * E12;
       // The leverages' u_kᵀ Σ₁₂ u_k = w_kᵀ S6 w_k: per row only where the rows' own leverages are
       // used (the autocorrelation's whitened residuals); their sum is tr(S6 Σ w wᵀ).
+      const double tr_Sww = S6.cwiseProduct(Aww).sum();
       double uSu = 0;
       if (autocorr)
         lev += ((S6 * Wm).cwiseProduct(Wm)).colwise().sum().transpose();
       else
-        uSu = S6.cwiseProduct(Aww).sum();
+        uSu = tr_Sww;
       const Vector12d gu = E12.transpose() * (Wm * sr);
       a.rows = M;
       a.pixels = P;
@@ -525,7 +512,7 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
         a.tr_SI = SI.trace();
         a.tr_SISI = SI.cwiseProduct(SI.transpose()).sum();
       } else {
-        double tr = S6.cwiseProduct(Aww).sum();  // (uSu is 0 when the rows' leverages hold it)
+        double tr = tr_Sww;
         for (int pix = 0; pix < P; ++pix) {
           const int px = rq[first_row[pix]].pixel;
           tr += wsq[pix] * wsq[pix] * bSb[px] - 2 * acr_sb[pix];
@@ -852,31 +839,35 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
     if (info && !score) throw std::logic_error("nuisance likelihood: information without score");
     // One variance component above zero (the others held there): every term is diagonal in
     // that group's eigenbasis (formed once per edge and group, then O(r²) per evaluation instead
-    // of O(r³)); the information is then only needed on the free coordinates, as below.
-    int positive = -1, npositive = 0;
+    // of O(r³)). k = that group, or −1 (the general path).
+    int k = -1, npositive = 0;
     for (int g = 0; g < G; ++g)
       if (th[g] > 0) {
-        positive = g;
+        k = g;
         ++npositive;
       }
-    if (npositive == 1) {
-      const int k = positive;
-      parallelFor(fe.size(), [&](std::size_t fi) {
-        FieldEdge& f = fe[fi];
-        EdgeTerms& et = terms[fi];
-        if (f.basis.empty()) f.basis.resize(G);
-        if (!f.basis[k]) {
-          const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(f.B[k]);
-          auto eb = std::make_unique<Eigenbasis>();
-          eb->d = eig.eigenvalues();
-          const Eigen::MatrixXd& U = eig.eigenvectors();
-          eb->y = U.transpose() * f.y;
-          eb->B.resize(G);
-          for (int g = 0; g < G; ++g)
-            if (g != k) eb->B[g] = U.transpose() * f.B[g] * U;
-          f.basis[k] = std::move(eb);
-        }
-        const Eigenbasis& eb = *f.basis[k];
+    if (npositive != 1) k = -1;
+    // The edge's eigenbasis of B_k, formed when first used (each edge only by its own index).
+    const auto eigenbasis = [&](FieldEdge& f) -> const Eigenbasis& {
+      if (f.basis.empty()) f.basis.resize(G);
+      if (!f.basis[k]) {
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(f.B[k]);
+        auto eb = std::make_unique<Eigenbasis>();
+        eb->d = eig.eigenvalues();
+        const Eigen::MatrixXd& U = eig.eigenvectors();
+        eb->y = U.transpose() * f.y;
+        eb->B.resize(G);
+        for (int g = 0; g < G; ++g)
+          if (g != k) eb->B[g] = U.transpose() * f.B[g] * U;
+        f.basis[k] = std::move(eb);
+      }
+      return *f.basis[k];
+    };
+    parallelFor(fe.size(), [&](std::size_t fi) {
+      FieldEdge& f = fe[fi];
+      EdgeTerms& et = terms[fi];
+      if (k >= 0) {
+        const Eigenbasis& eb = eigenbasis(f);
         const Eigen::ArrayXd c = se[f.edge] + th[k] * eb.d.array();  // Cv's eigenvalues
         et.ok = (c > 0).all();
         if (!et.ok) return;
@@ -889,43 +880,8 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
                             ? 0.5 * ((eb.d.array() * v.square()).sum() - (eb.d.array() * ci).sum())
                             : 0.5 * (v.matrix().dot(eb.B[g] * v.matrix()) -
                                      (eb.B[g].diagonal().array() * ci).sum());
-      });
-      double ll = 0;
-      if (score) *score = Eigen::VectorXd::Zero(G);
-      for (const EdgeTerms& et : terms) {
-        if (!et.ok) return -std::numeric_limits<double>::infinity();
-        ll += et.ll;
-        if (score) *score += et.score;
+        return;
       }
-      if (!info) return ll;
-      *info = Eigen::MatrixXd::Zero(G, G);
-      std::vector<int> free;
-      for (int g = 0; g < G; ++g)
-        if (th[g] > 0 || (*score)[g] > 0) free.push_back(g);
-      // ½ tr(Cv⁻¹B_g Cv⁻¹B_h) = ½ Σ_ij B_g,ij B_h,ji / (c_i c_j) (B_k = diag(d)).
-      parallelFor(fe.size(), [&](std::size_t fi) {
-        const FieldEdge& f = fe[fi];
-        EdgeTerms& et = terms[fi];
-        const Eigenbasis& eb = *f.basis[k];
-        const Eigen::VectorXd ci = (se[f.edge] + th[k] * eb.d.array()).inverse().matrix();
-        et.info.setZero(G, G);
-        const auto whitened = [&](int g) {
-          return g == k ? Eigen::MatrixXd((ci.asDiagonal() * eb.d).asDiagonal())
-                        : Eigen::MatrixXd(ci.asDiagonal() * eb.B[g]);
-        };
-        std::vector<Eigen::MatrixXd> X(free.size());
-        for (std::size_t a = 0; a < free.size(); ++a) X[a] = whitened(free[a]);
-        for (std::size_t a = 0; a < free.size(); ++a)
-          for (std::size_t b = 0; b <= a; ++b)
-            et.info(free[a], free[b]) = et.info(free[b], free[a]) =
-                0.5 * X[a].cwiseProduct(X[b].transpose()).sum();
-      });
-      for (const EdgeTerms& et : terms) *info += et.info;
-      return ll;
-    }
-    parallelFor(fe.size(), [&](std::size_t fi) {
-      const FieldEdge& f = fe[fi];
-      EdgeTerms& et = terms[fi];
       const int r = static_cast<int>(f.y.size());
       Eigen::MatrixXd Cv = se[f.edge] * Eigen::MatrixXd::Identity(r, r);
       for (int g = 0; g < G; ++g) Cv += th[g] * f.B[g];
@@ -967,10 +923,19 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       const FieldEdge& f = fe[fi];
       EdgeTerms& et = terms[fi];
       const int r = static_cast<int>(f.y.size());
+      // X_g = Cv⁻¹ B_g: in the eigenbasis diag(1/c) B_g (B_k = diag(d)), else one product.
       std::vector<RowMatrix> X(nf);
-      for (int a = 0; a < nf; ++a) {
-        X[a].setZero(r, r);
-        kernel::gemmNT(r, r, r, et.Cinv.data(), r, f.B[free[a]].data(), r, X[a].data(), r);
+      if (k >= 0) {
+        const Eigenbasis& eb = *f.basis[k];
+        const Eigen::VectorXd ci = (se[f.edge] + th[k] * eb.d.array()).inverse().matrix();
+        for (int a = 0; a < nf; ++a)
+          X[a] = free[a] == k ? RowMatrix((ci.asDiagonal() * eb.d).asDiagonal())
+                              : RowMatrix(ci.asDiagonal() * eb.B[free[a]]);
+      } else {
+        for (int a = 0; a < nf; ++a) {
+          X[a].setZero(r, r);
+          kernel::gemmNT(r, r, r, et.Cinv.data(), r, f.B[free[a]].data(), r, X[a].data(), r);
+        }
       }
       et.info.setZero(G, G);
       for (int a = 0; a < nf; ++a)

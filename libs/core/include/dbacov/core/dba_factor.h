@@ -41,12 +41,14 @@ inline Eigen::Vector3d transferPoint(const Eigen::Matrix3d& R_ji, const Eigen::V
   return R_ji * p + t_ji * d;
 }
 
-/// Residual and Jacobians of one pixel factor. Precondition: Y.z() > 0 (callers filter pixels).
-inline void linearizePixelFactor(const Eigen::Matrix3d& R_ji, const Eigen::Vector3d& t_ji,
-                                 const PinholeIntrinsics& K, double x, double y, double d,
-                                 double target_x, double target_y, PixelFactorLinearization* out) {
-  const Eigen::Vector3d p((x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0);
-  const Eigen::Vector3d Y = R_ji * p + t_ji * d;
+/// The residual, ∂r/∂ξ_j and ∂r/∂d of one pixel factor from its point Y in frame j
+/// (transferPoint); out->J_i is left as it is (it is −J_j Ad(T_ji), dba_kernel.h). Returns
+/// −∂π/∂Y, from which linearizePixelFactor forms J_i. Precondition: Y.z() > 0.
+inline Eigen::Matrix<double, 2, 3> linearizePixelFactorAt(const Eigen::Vector3d& Y,
+                                                          const Eigen::Vector3d& t_ji,
+                                                          const PinholeIntrinsics& K, double d,
+                                                          double target_x, double target_y,
+                                                          PixelFactorLinearization* out) {
   const double iz = 1.0 / Y.z();
   out->r << target_x - (K.fx * Y.x() * iz + K.cx), target_y - (K.fy * Y.y() * iz + K.cy);
 
@@ -54,12 +56,23 @@ inline void linearizePixelFactor(const Eigen::Matrix3d& R_ji, const Eigen::Vecto
   Eigen::Matrix<double, 2, 3> mdPi;
   mdPi << -K.fx * iz, 0.0, K.fx * Y.x() * iz * iz, 0.0, -K.fy * iz, K.fy * Y.y() * iz * iz;
 
-  const Eigen::Matrix<double, 2, 3> mdPiR = mdPi * R_ji;
-  out->J_i.leftCols<3>() = d * mdPiR;
-  out->J_i.rightCols<3>() = -mdPiR * hat(p);
   out->J_j.leftCols<3>() = -d * mdPi;
   out->J_j.rightCols<3>() = mdPi * hat(Y);
   out->J_d = mdPi * t_ji;
+  return mdPi;
+}
+
+/// Residual and Jacobians of one pixel factor. Precondition: Y.z() > 0 (callers filter pixels).
+inline void linearizePixelFactor(const Eigen::Matrix3d& R_ji, const Eigen::Vector3d& t_ji,
+                                 const PinholeIntrinsics& K, double x, double y, double d,
+                                 double target_x, double target_y, PixelFactorLinearization* out) {
+  const Eigen::Vector3d p((x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0);
+  const Eigen::Vector3d Y = R_ji * p + t_ji * d;
+  const Eigen::Matrix<double, 2, 3> mdPi =
+      linearizePixelFactorAt(Y, t_ji, K, d, target_x, target_y, out);
+  const Eigen::Matrix<double, 2, 3> mdPiR = mdPi * R_ji;
+  out->J_i.leftCols<3>() = d * mdPiR;
+  out->J_i.rightCols<3>() = -mdPiR * hat(p);
 }
 
 /// Residual from the two camera-to-world poses directly (the reference for finite differences).
