@@ -175,6 +175,11 @@ int main(int argc, char** argv) {
               c.bootstrap_resampling = BootstrapResampling::Wild;
               name.erase(name.find("-wild"), 5);
             }
+            // "-d2": with the depths' second-order noise term.
+            if (name.find("-d2") != std::string::npos) {
+              c.depth_noise = true;
+              name.erase(name.find("-d2"), 3);
+            }
             // "-g<G>": nuisance with the affine field + a G × G tent spline (G = 0: affine only).
             if (name.find("-g") != std::string::npos) {
               c.nuisance_nodes = std::atoi(name.substr(name.find("-g") + 2).c_str());

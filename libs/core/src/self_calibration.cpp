@@ -15,6 +15,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "dbacov/core/dba_factor.h"
+#include "dbacov/core/depth_noise.h"
 #include "dbacov/core/dot_products.h"
 #include "dbacov/core/errors.h"
 #include "dbacov/core/gauge.h"
@@ -79,9 +80,9 @@ struct DenseModel {
   Eigen::MatrixXd Sigma;    ///< 6n × 6n, full tangent
 };
 
-DenseModel buildModel(const Snapshot& s, const DbaOptions& o) {
+DenseModel buildModel(const Snapshot& s, const DbaOptions& o, bool keep_depth_terms = false) {
   DenseModel m;
-  m.ne = linearizeDba(s, o);
+  m.ne = linearizeDba(s, o, keep_depth_terms);
   m.gauge = makeGauge(o.gauge, s, m.ne.keyframes);
   checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
   const int n = static_cast<int>(m.ne.keyframes.size()), K = m.gauge.dim();
@@ -1089,6 +1090,7 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
   const int E = s.numEdges();
   SelfCalibration out;
   out.method = c.method;
+  out.depth_noise = c.depth_noise;
   out.edges.resize(E);
   for (int e = 0; e < E; ++e) {
     out.edges[e].edge = e;
@@ -1209,6 +1211,25 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
   return out;
 }
 
+namespace {
+/// Each edge's white-noise variance factor: the inflation of vce and nuisance (nuisance: s_e, the
+/// field is a term of its own), without the correlation factor of score and autocorr; sandwich
+/// keeps the snapshot's weights, its white scale is vce's.
+std::vector<double> whiteFactors(const SelfCalibration& cal) {
+  std::vector<double> f;
+  f.reserve(cal.edges.size());
+  for (const EdgeCalibration& e : cal.edges) {
+    double x = e.inflation;
+    if (cal.method == SelfCalibrationMethod::Score || cal.method == SelfCalibrationMethod::Autocorr)
+      x /= e.correlation;
+    else if (cal.method == SelfCalibrationMethod::Sandwich)
+      x = e.vce_scale;
+    f.push_back(std::isfinite(x) && x > 0 ? x : e.inflation);
+  }
+  return f;
+}
+}  // namespace
+
 DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
                                        const CovarianceOptions& solver,
                                        const SelfCalibration& cal) {
@@ -1225,6 +1246,51 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
           std::to_string(s.jj[e]) + "), the self-calibration's (" + std::to_string(cal.edges[e].i) +
           ", " + std::to_string(cal.edges[e].j) + "): it is of another snapshot");
   SelfCalibrationSummary summary{toString(cal.method), cal.inflations()};
+  if (cal.depth_noise && cal.method != SelfCalibrationMethod::Bootstrap) {
+    // The depths' second-order term (depth_noise.h) of the white noise each edge was found to
+    // have, added to the method's covariance in the gauge's reduced coordinates. The bootstrap
+    // re-solves: its scale measures the nonlinearity itself.
+    Snapshot si = inflateWeights(s, whiteFactors(cal));
+    DenseModel m = buildModel(si, o, true);
+    const DepthNoiseTerms dn = depthNoiseTerms(si, o, m.ne);
+    const Eigen::MatrixXd Mr = m.basis.transpose() * dn.M * m.basis;
+    const Eigen::MatrixXd Nr = m.basis.transpose() * dn.N * m.basis;
+    // The information at the true depths, E[S(d̂)] − M, inverted; the score's variance
+    // S + M + N around it (a sandwich).
+    Eigen::MatrixXd S1 = m.Sr - Mr;
+    const Eigen::LLT<Eigen::MatrixXd> llt1(S1);
+    Eigen::MatrixXd Sigma1 = m.Sigma_r + m.Sigma_r * Mr * m.Sigma_r;
+    if (llt1.info() == Eigen::Success)
+      Sigma1 = llt1.solve(Eigen::MatrixXd::Identity(S1.rows(), S1.cols()));
+    // The method's own covariance: sandwich's and nuisance's reduced one, else that of its
+    // inflations (beyond the white factors for score and autocorr).
+    const std::vector<double> infl = cal.inflations();
+    const bool white = infl == whiteFactors(cal);
+    Eigen::MatrixXd V = cal.reduced_covariance ? *cal.reduced_covariance
+                        : white                ? m.Sigma_r
+                                               : buildModel(inflateWeights(s, infl), o).Sigma_r;
+    V += Sigma1 + Sigma1 * (Mr + Nr) * Sigma1 - m.Sigma_r;
+    V = 0.5 * (V + V.transpose()).eval();
+    CovarianceOptions so = solver;
+    so.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
+    if (cal.reduced_covariance) {
+      so.linearization = cal.linearization;
+      DbaCovariance cov(s, o, so);
+      cov.setSelfCalibrationSummary(std::move(summary));
+      return cov;
+    }
+    // The query API on the method's own weights (score and autocorr inflate beyond the white
+    // factors): the linearization just made is theirs only when the factors are the inflations.
+    if (white) {
+      so.linearization = std::make_shared<const DbaNormalEquations>(std::move(m.ne));
+      DbaCovariance cov(si, o, so);
+      cov.setSelfCalibrationSummary(std::move(summary));
+      return cov;
+    }
+    DbaCovariance cov(inflateWeights(s, infl), o, so);
+    cov.setSelfCalibrationSummary(std::move(summary));
+    return cov;
+  }
   if (cal.reduced_covariance) {
     CovarianceOptions so = solver;
     so.reduced_covariance = cal.reduced_covariance;

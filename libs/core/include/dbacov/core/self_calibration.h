@@ -144,6 +144,11 @@ struct SelfCalibrationOptions {
   int bootstrap_replicates = 32;
   unsigned long long bootstrap_seed = 1;
   BootstrapResampling bootstrap_resampling = BootstrapResampling::Parametric;
+  /// Adds the depths' second-order noise term (depth_noise.h, README) of each edge's white noise
+  /// to the calibrated covariance: what the linearization misses where the depths are poorly
+  /// determined (white noise 2x, the low-SNR scene). Not with the bootstrap, which re-solves.
+  /// Off by default until its held-out study is complete (README).
+  bool depth_noise = false;
   double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
   double max_inflation = 1e9;
   /// Throws std::invalid_argument for values out of their domain.
@@ -203,6 +208,8 @@ struct SelfCalibration {
   /// Nuisance: the linearization reduced_covariance was computed with (the snapshot's own, at its
   /// weights), so that selfCalibratedCovariance of the same snapshot does not linearize again.
   std::shared_ptr<const DbaNormalEquations> linearization;
+  /// The options' depth_noise: selfCalibratedCovariance adds the depths' second-order term.
+  bool depth_noise = false;
   /// Per-edge inflations in edge order.
   std::vector<double> inflations() const;
 };

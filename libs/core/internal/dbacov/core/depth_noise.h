@@ -1,0 +1,51 @@
+// The second-order term of the depths' noise in the pose covariance (README "Self-calibration
+// from the residuals", the depth-noise term).
+//
+// Every pixel's inverse depth is estimated from a few factors, so its error δ_k (variance
+// σ_k² = 1/h_k at the poses) does not shrink as the snapshot grows. To second order it enters the
+// poses' profile score U twice:
+//   δ_k · J'ᵀ W P⊥ ε       J' = ∂[J_i | J_j]/∂d: the pose Jacobians move with the depth
+//   ½ δ_k² · Jᵀ W P⊥ r''   r'' = ∂²r/∂d²: the residual is curved in the depth
+// (P⊥ removes what the depth itself absorbs). Both are uncorrelated with the first-order score
+// Jᵀ W P⊥ ε (odd Gaussian moments), so they add to its variance:
+//   M = Σ_k σ_k² J'_kᵀ W P⊥ J'_k = Σ_k [ A_k / h_k − a_k a_kᵀ / h_k² ],
+//       A_k = Σ_f J'_fᵀ Λ_f J'_f,  a_k = Σ_f J'_fᵀ Λ_f J_d,f
+//   N = Σ_k g_k g_kᵀ / (2 h_k²),  g_k = Σ_f J_fᵀ Λ_f r''_f − b_k (Σ_f J_d,fᵀ Λ_f r''_f) / h_k
+// and the Gauss–Newton information evaluated at the estimated depths is itself too large by
+// E[S(d̂)] − S(d) ≈ M (the same J' terms, squared; exact when r is linear in d, ∂J_d/∂d = r'' = 0).
+// So the information at the true depths is H = S(d̂) − M, the score's variance H + M + N, and
+//   Var(ξ̂) ≈ H⁻¹ (H + M + N) H⁻¹ = H⁻¹ + H⁻¹ (M + N) H⁻¹        (≈ S⁻¹ + S⁻¹(2M + N)S⁻¹),
+// whose relative size grows with the noise variance (M and N do not change when every weight
+// is scaled; S⁻¹ does): negligible where the depths are well determined, the bulk of the
+// over-confidence where they are not (white noise at 2×, the low-SNR scene).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "dbacov/core/linearization.h"
+#include "dbacov/core/options.h"
+#include "dbacov/core/snapshot.h"
+
+namespace dbacov {
+
+/// ∂J_j/∂d (2×6) of one pixel factor at the point Y = R_ji p + t_ji d in frame j
+/// (transferPoint); ∂J_i/∂d = −∂J_j/∂d · Ad(T_ji). Also r'' = ∂²r/∂d² when asked.
+Eigen::Matrix<double, 2, 6> pixelFactorJacobianDepthDerivative(const Eigen::Vector3d& Y,
+                                                               const Eigen::Vector3d& t_ji,
+                                                               double fx, double fy, double d,
+                                                               Eigen::Vector2d* r_dd = nullptr);
+
+struct DepthNoiseTerms {
+  Eigen::MatrixXd M;  ///< 6n × 6n (slots of ne.keyframes), symmetric PSD
+  Eigen::MatrixXd N;  ///< 6n × 6n, symmetric PSD
+  /// E[U] of the curvature term, Σ_k −g_k / (2 h_k): S⁻¹ of it is the O(σ²) bias of the poses.
+  Eigen::VectorXd bias_score;
+  std::size_t depths = 0;  ///< kept depths summed over
+};
+
+/// The terms for the snapshot's weights (weight_scale · w) at its state. `ne` must be the
+/// linearization of the same snapshot and options with keep_depth_terms.
+DepthNoiseTerms depthNoiseTerms(const Snapshot& snapshot, const DbaOptions& options,
+                                const DbaNormalEquations& ne);
+
+}  // namespace dbacov

@@ -1,0 +1,156 @@
+// The depths' second-order noise term (depth_noise.h). One scalar pass over the kept depths of
+// every source keyframe, in the edges' coordinates (J_i = −J_j Ad(T_ji), as the kernel): per edge
+// the 6 × 6 sum of J'_jᵀ Λ J'_j / h, per source the 6E × 6E sum of the depth couplings' outer
+// products, mapped to the touched slots once per source.
+#include "dbacov/core/depth_noise.h"
+
+#include <algorithm>
+
+#include "dbacov/core/dba_factor.h"
+#include "dbacov/core/parallel.h"
+#include "dbacov/core/se3.h"
+
+namespace dbacov {
+
+Eigen::Matrix<double, 2, 6> pixelFactorJacobianDepthDerivative(const Eigen::Vector3d& Y,
+                                                               const Eigen::Vector3d& t, double fx,
+                                                               double fy, double d,
+                                                               Eigen::Vector2d* r_dd) {
+  const double iz = 1.0 / Y.z(), iz2 = iz * iz;
+  // −∂π/∂Y and its derivative along ∂Y/∂d = t.
+  Eigen::Matrix<double, 2, 3> mdPi, dmdPi;
+  mdPi << -fx * iz, 0.0, fx * Y.x() * iz2, 0.0, -fy * iz, fy * Y.y() * iz2;
+  dmdPi << fx * t.z() * iz2, 0.0, fx * (t.x() * iz2 - 2.0 * Y.x() * t.z() * iz2 * iz), 0.0,
+      fy * t.z() * iz2, fy * (t.y() * iz2 - 2.0 * Y.y() * t.z() * iz2 * iz);
+  // J_j = [−d·mdPi, mdPi [Y]×], J_d = mdPi t.
+  Eigen::Matrix<double, 2, 6> out;
+  out.leftCols<3>() = -mdPi - d * dmdPi;
+  out.rightCols<3>() = dmdPi * hat(Y) + mdPi * hat(t);
+  if (r_dd) *r_dd = dmdPi * t;
+  return out;
+}
+
+namespace {
+
+struct SourceTerms {
+  Eigen::MatrixXd M, N;
+  Eigen::VectorXd bias;
+  std::size_t depths = 0;
+};
+
+SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalEquations& ne,
+                        const DepthTerms& dt) {
+  SourceTerms out;
+  const int src = ne.keyframes[dt.source_slot];
+  const int T = static_cast<int>(dt.touched.size());
+  struct EdgeRef {
+    int edge, target;
+    Eigen::Matrix3d R;
+    Eigen::Vector3d t;
+    Matrix6d Ad;
+  };
+  std::vector<EdgeRef> edges;
+  const Eigen::Isometry3d T_wc_src = s.T_cw(src).inverse();
+  for (int e = 0; e < s.numEdges(); ++e) {
+    if (s.ii[e] != src || s.jj[e] == src) continue;
+    const int slot = ne.slot_of[s.jj[e]];
+    const auto it = std::find(dt.touched.begin(), dt.touched.end(), slot);
+    if (slot < 0 || it == dt.touched.end()) continue;
+    const Eigen::Isometry3d T_ji = s.T_cw(s.jj[e]) * T_wc_src;
+    edges.push_back({e, static_cast<int>(it - dt.touched.begin()), T_ji.linear(),
+                     T_ji.translation(), adjoint(T_ji)});
+  }
+  const int E = static_cast<int>(edges.size());
+  out.M = Eigen::MatrixXd::Zero(6 * T, 6 * T);
+  out.N = Eigen::MatrixXd::Zero(6 * T, 6 * T);
+  out.bias = Eigen::VectorXd::Zero(6 * T);
+  if (E == 0) return out;
+  // Γ (6T × 6E): an edge's 6 coordinates on the touched slots, source −Adᵀ, target I.
+  Eigen::MatrixXd Gamma = Eigen::MatrixXd::Zero(6 * T, 6 * E);
+  for (int q = 0; q < E; ++q) {
+    Gamma.block<6, 6>(0, 6 * q) = -edges[q].Ad.transpose();
+    Gamma.block<6, 6>(6 * edges[q].target, 6 * q).setIdentity();
+  }
+  const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
+  const std::size_t HW = s.pixelsPerFrame();
+  const float* disps = &s.disps[static_cast<std::size_t>(src) * HW];
+  std::vector<Matrix6d> A(E, Matrix6d::Zero());
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(6 * E, 6 * E);  // Σ c cᵀ / h², lower triangle
+  Eigen::VectorXd c(6 * E), u(6 * E), bq(6 * E);
+  for (std::size_t k = 0; k < dt.pixel.size(); ++k) {
+    const int p = dt.pixel[k];
+    const double h = dt.h[k], d = disps[p];
+    const double x = p % s.W, y = p / s.W;
+    c.setZero();
+    u.setZero();
+    bq.setZero();
+    double sdd = 0;  // Σ J_dᵀ Λ r''
+    bool any = false;
+    for (int q = 0; q < E; ++q) {
+      const EdgeRef& er = edges[q];
+      const Eigen::Vector3d Y = transferPoint(er.R, er.t, K, x, y, d);
+      if (!keepPixelFactor(o, d, Y.z())) continue;
+      const double lx = o.weight_scale * s.weightPlane(er.edge, 0)[p];
+      const double ly = o.weight_scale * s.weightPlane(er.edge, 1)[p];
+      if (!(lx > 0) && !(ly > 0)) continue;
+      const Eigen::Vector2d lam(lx, ly);
+      PixelFactorLinearization f;
+      linearizePixelFactorAt(Y, er.t, K, d, 0.0, 0.0, &f);
+      Eigen::Vector2d rdd;
+      const Eigen::Matrix<double, 2, 6> Jp =
+          pixelFactorJacobianDepthDerivative(Y, er.t, K.fx, K.fy, d, &rdd);
+      const Eigen::Matrix<double, 6, 2> JpL = Jp.transpose() * lam.asDiagonal();
+      const Eigen::Matrix<double, 6, 2> JjL = f.J_j.transpose() * lam.asDiagonal();
+      A[q].noalias() += (JpL * Jp) / h;
+      c.segment<6>(6 * q) = JpL * f.J_d;
+      u.segment<6>(6 * q) = JjL * rdd;
+      bq.segment<6>(6 * q) = JjL * f.J_d;
+      sdd += f.J_d.dot(lam.asDiagonal() * rdd);
+      any = true;
+    }
+    if (!any) continue;
+    ++out.depths;
+    C.selfadjointView<Eigen::Lower>().rankUpdate(c, 1.0 / (h * h));
+    const Eigen::VectorXd g = Gamma * (u - bq * (sdd / h));
+    out.N.selfadjointView<Eigen::Lower>().rankUpdate(g, 0.5 / (h * h));
+    out.bias.noalias() -= g / (2.0 * h);
+  }
+  C.triangularView<Eigen::StrictlyUpper>() = C.transpose();
+  out.N.triangularView<Eigen::StrictlyUpper>() = out.N.transpose();
+  out.M.noalias() -= Gamma * C * Gamma.transpose();
+  for (int q = 0; q < E; ++q) {
+    const auto G = Gamma.middleCols<6>(6 * q);
+    out.M.noalias() += G * A[q] * G.transpose();
+  }
+  out.M = 0.5 * (out.M + out.M.transpose()).eval();
+  return out;
+}
+
+}  // namespace
+
+DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
+                                const DbaNormalEquations& ne) {
+  const int n = static_cast<int>(ne.keyframes.size());
+  DepthNoiseTerms out;
+  out.M = Eigen::MatrixXd::Zero(6 * n, 6 * n);
+  out.N = Eigen::MatrixXd::Zero(6 * n, 6 * n);
+  out.bias_score = Eigen::VectorXd::Zero(6 * n);
+  std::vector<SourceTerms> per(ne.depths.size());
+  parallelFor(ne.depths.size(),
+              [&](std::size_t i) { per[i] = sourceTerms(s, o, ne, ne.depths[i]); });
+  for (std::size_t i = 0; i < per.size(); ++i) {
+    const std::vector<int>& touched = ne.depths[i].touched;
+    const int T = static_cast<int>(touched.size());
+    for (int a = 0; a < T; ++a) {
+      out.bias_score.segment<6>(6 * touched[a]) += per[i].bias.segment<6>(6 * a);
+      for (int b = 0; b < T; ++b) {
+        out.M.block<6, 6>(6 * touched[a], 6 * touched[b]) += per[i].M.block<6, 6>(6 * a, 6 * b);
+        out.N.block<6, 6>(6 * touched[a], 6 * touched[b]) += per[i].N.block<6, 6>(6 * a, 6 * b);
+      }
+    }
+    out.depths += per[i].depths;
+  }
+  return out;
+}
+
+}  // namespace dbacov
