@@ -1250,44 +1250,46 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     // The depths' second-order term (depth_noise.h) of the white noise each edge was found to
     // have, added to the method's covariance in the gauge's reduced coordinates. The bootstrap
     // re-solves: its scale measures the nonlinearity itself.
-    Snapshot si = inflateWeights(s, whiteFactors(cal));
+    const std::vector<double> white_factors = whiteFactors(cal), infl = cal.inflations();
+    Snapshot si = inflateWeights(s, white_factors);
     DenseModel m = buildModel(si, o, true);
     const DepthNoiseTerms dn = depthNoiseTerms(si, o, m.ne);
     const Eigen::MatrixXd Mr = m.basis.transpose() * dn.M * m.basis;
     const Eigen::MatrixXd Nr = m.basis.transpose() * dn.N * m.basis;
     // The information at the true depths, E[S(d̂)] − M, inverted; the score's variance
-    // S + M + N around it (a sandwich).
-    Eigen::MatrixXd S1 = m.Sr - Mr;
+    // S + M + N around it (a sandwich). Where S − M is not positive definite (M as large as the
+    // information itself), its first-order inverse S⁻¹ + S⁻¹ M S⁻¹.
+    const Eigen::MatrixXd S1 = m.Sr - Mr;
     const Eigen::LLT<Eigen::MatrixXd> llt1(S1);
-    Eigen::MatrixXd Sigma1 = m.Sigma_r + m.Sigma_r * Mr * m.Sigma_r;
-    if (llt1.info() == Eigen::Success)
-      Sigma1 = llt1.solve(Eigen::MatrixXd::Identity(S1.rows(), S1.cols()));
-    // The method's own covariance: sandwich's and nuisance's reduced one, else that of its
-    // inflations (beyond the white factors for score and autocorr).
-    const std::vector<double> infl = cal.inflations();
-    const bool white = infl == whiteFactors(cal);
-    Eigen::MatrixXd V = cal.reduced_covariance ? *cal.reduced_covariance
-                        : white                ? m.Sigma_r
-                                               : buildModel(inflateWeights(s, infl), o).Sigma_r;
+    const Eigen::MatrixXd Sigma1 =
+        llt1.info() == Eigen::Success
+            ? Eigen::MatrixXd(llt1.solve(Eigen::MatrixXd::Identity(S1.rows(), S1.cols())))
+            : Eigen::MatrixXd(m.Sigma_r + m.Sigma_r * Mr * m.Sigma_r);
+    // The method's own covariance and the snapshot and linearization the query API answers on:
+    // sandwich's and nuisance's reduced one on the snapshot; else that of its inflations, which
+    // are the white factors (vce) or go beyond them (score, autocorr: a model of their own).
+    CovarianceOptions so = solver;
+    const Snapshot* on = &s;
+    Snapshot inflated;
+    Eigen::MatrixXd V;
+    if (cal.reduced_covariance) {
+      V = *cal.reduced_covariance;
+      so.linearization = cal.linearization;
+    } else if (infl == white_factors) {
+      V = m.Sigma_r;
+      so.linearization = std::make_shared<const DbaNormalEquations>(std::move(m.ne));
+      on = &si;
+    } else {
+      inflated = inflateWeights(s, infl);
+      DenseModel mi = buildModel(inflated, o);
+      V = std::move(mi.Sigma_r);
+      so.linearization = std::make_shared<const DbaNormalEquations>(std::move(mi.ne));
+      on = &inflated;
+    }
     V += Sigma1 + Sigma1 * (Mr + Nr) * Sigma1 - m.Sigma_r;
     V = 0.5 * (V + V.transpose()).eval();
-    CovarianceOptions so = solver;
     so.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
-    if (cal.reduced_covariance) {
-      so.linearization = cal.linearization;
-      DbaCovariance cov(s, o, so);
-      cov.setSelfCalibrationSummary(std::move(summary));
-      return cov;
-    }
-    // The query API on the method's own weights (score and autocorr inflate beyond the white
-    // factors): the linearization just made is theirs only when the factors are the inflations.
-    if (white) {
-      so.linearization = std::make_shared<const DbaNormalEquations>(std::move(m.ne));
-      DbaCovariance cov(si, o, so);
-      cov.setSelfCalibrationSummary(std::move(summary));
-      return cov;
-    }
-    DbaCovariance cov(inflateWeights(s, infl), o, so);
+    DbaCovariance cov(*on, o, so);
     cov.setSelfCalibrationSummary(std::move(summary));
     return cov;
   }
