@@ -73,10 +73,13 @@ def Covariance(snapshot, preset="droid", **options):
     self_calibrate_iterations (1..20), self_calibrate_nodes (the field of nuisance and bootstrap:
     0 = affine, 2..8 = affine + G x G spline, default 4), self_calibrate_replicates (bootstrap's
     re-solved replicates, 4..100000, default 32) and self_calibrate_resampling ("parametric"
-    (default) | "wild": bootstrap's white noise); each implies self_calibrate. Bootstrap adds
+    (default) | "wild": bootstrap's white noise) and self_calibrate_depth_noise (True (default)
+    | False: the depths' second-order noise term; not with bootstrap); each implies
+    self_calibrate. Bootstrap adds
     bootstrap_scale, bootstrap_replicates and bootstrap_failed to the dict;
     converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one).
     The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,
+    depth_noise (applied or not), depth_noise_share (the term's share of the covariance's trace),
     edges: one array per --edge-csv column; nuisance adds field_sigma, field_fine_sigma (px)
     and field_params)."""
     if not isinstance(snapshot, _Snapshot):

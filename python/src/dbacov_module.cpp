@@ -132,15 +132,15 @@ std::string snapshotName(const Snapshot& s) {
 
 /// The self-calibration keywords into the core options by the apps' own builder
 /// (SelfCalibrationAppOptions::options(): the method's name through the enum table, the same
-/// message for an unknown one). A method, nodes, replicates or resampling imply self_calibrate, as
-/// their flags do.
+/// message for an unknown one). A method, nodes, replicates, resampling or depth noise imply
+/// self_calibrate, as their flags do.
 SelfCalibrationAppOptions selfCalibrationOptions(
     bool self_calibrate, std::optional<std::string> method, std::optional<int> iterations,
     std::optional<int> nodes, std::optional<int> replicates, std::optional<std::string> resampling,
-    bool converge) {
+    std::optional<bool> depth_noise, bool converge) {
   SelfCalibrationAppOptions o;
   o.enabled = self_calibrate || method.has_value() || nodes.has_value() || replicates.has_value() ||
-              resampling.has_value();
+              resampling.has_value() || depth_noise.has_value();
   if (method) o.method = *method;
   if (iterations) {
     if (*iterations < 1 || *iterations > 20)  // dba-covariance's CLI::Range(1, 20)
@@ -166,6 +166,7 @@ SelfCalibrationAppOptions selfCalibrationOptions(
     o.replicates = *replicates;
   }
   if (resampling) o.resampling = *resampling;
+  if (depth_noise) o.depth_noise = *depth_noise ? "on" : "off";
   o.converge = converge;
   o.options();  // throws std::invalid_argument for an unknown method or resampling
   return o;
@@ -408,7 +409,8 @@ PYBIND11_MODULE(_dbacov, m) {
                        std::optional<int> self_calibrate_iterations,
                        std::optional<int> self_calibrate_nodes,
                        std::optional<int> self_calibrate_replicates,
-                       std::optional<std::string> self_calibrate_resampling, bool converge) {
+                       std::optional<std::string> self_calibrate_resampling,
+                       std::optional<bool> self_calibrate_depth_noise, bool converge) {
              auto c = std::make_unique<PyCovariance>();
              c->options =
                  engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans,
@@ -417,7 +419,7 @@ PYBIND11_MODULE(_dbacov, m) {
              const SelfCalibrationAppOptions sc = selfCalibrationOptions(
                  self_calibrate, self_calibrate_method, self_calibrate_iterations,
                  self_calibrate_nodes, self_calibrate_replicates, self_calibrate_resampling,
-                 converge);
+                 self_calibrate_depth_noise, converge);
              c->depth_sigma = depth_sigma;
              py::gil_scoped_release release;
              const ThreadLimit limit(threads);
@@ -450,12 +452,18 @@ PYBIND11_MODULE(_dbacov, m) {
            py::arg("self_calibrate_iterations") = py::none(),
            py::arg("self_calibrate_nodes") = py::none(),
            py::arg("self_calibrate_replicates") = py::none(),
-           py::arg("self_calibrate_resampling") = py::none(), py::arg("converge") = false)
-      .def_property_readonly("self_calibration",
-                             [](const PyCovariance& c) -> py::object {
-                               if (!c.calibration) return py::none();
-                               return calibrationDict(*c.calibration);
-                             })
+           py::arg("self_calibrate_resampling") = py::none(),
+           py::arg("self_calibrate_depth_noise") = py::none(), py::arg("converge") = false)
+      .def_property_readonly(
+          "self_calibration",
+          [](const PyCovariance& c) -> py::object {
+            if (!c.calibration) return py::none();
+            py::dict d = calibrationDict(*c.calibration);
+            d["depth_noise"] = c.calibration->depth_noise &&
+                               c.calibration->method != SelfCalibrationMethod::Bootstrap;
+            d["depth_noise_share"] = c.cov->summary().self_calibration.depth_noise_share;
+            return std::move(d);
+          })
       .def_property_readonly("converged",
                              [](const PyCovariance& c) -> py::object {
                                if (!c.solve) return py::none();

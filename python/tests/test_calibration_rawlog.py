@@ -119,6 +119,41 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
     assert not os.path.exists(tmp_path / "x.csv")
 
 
+def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
+    # On by default; self_calibrate_depth_noise=False (implies self_calibrate) is the CLI's
+    # --self-calibrate-depth-noise off, to 1e-12; the term only widens the covariance.
+    on = dbacov.Covariance(shared_path, self_calibrate=True)
+    off = dbacov.Covariance(shared_path, self_calibrate_depth_noise=False)
+    assert on.self_calibration["depth_noise"] is True
+    assert off.self_calibration["depth_noise"] is False
+    assert on.self_calibration["depth_noise_share"] > 0
+    assert off.self_calibration["depth_noise_share"] == 0
+    assert "depths' 2nd-order term   +" in on.summary(full=True)
+    assert "depths' 2nd-order term" not in off.summary(full=True)
+    assert_agree(off, cli_marginals(shared_path, tmp_path, "--self-calibrate-depth-noise", "off"))
+    assert_agree(on, cli_marginals(shared_path, tmp_path, "--self-calibrate-depth-noise", "on"))
+    for k in on.keyframes[2:]:
+        assert np.trace(on.marginal(k)) > np.trace(off.marginal(k))
+    # The run summary says how much the term added.
+    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"), "--self-calibrate")
+    assert r.returncode == 0, r.stderr
+    share = 100 * on.self_calibration["depth_noise_share"]
+    assert f"depths' second-order term median +{share:.6g} % of the covariance's trace" in r.stderr
+    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"),
+                "--self-calibrate-depth-noise", "off")
+    assert r.returncode == 0 and "second-order" not in r.stderr, r.stderr
+    # Not with the bootstrap, which re-solves instead: refused by keyword and flag alike.
+    with pytest.raises(ValueError) as e:
+        dbacov.Covariance(shared_path, self_calibrate_method="bootstrap",
+                          self_calibrate_depth_noise=True)
+    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "x.csv"), "--self-calibrate-method",
+                "bootstrap", "--self-calibrate-depth-noise", "on")
+    assert r.returncode == 2
+    assert r.stderr.splitlines()[0] == "dba-covariance: " + str(e.value)
+    assert "not bootstrap" in str(e.value)
+    assert not os.path.exists(tmp_path / "x.csv")
+
+
 def test_bootstrap_method_reports_its_scales(sim_dir):
     # A small simulated snapshot (the shared one takes ~4 s per 32 replicates): the bootstrap's
     # scales are in the dict next to the nuisance field it scales.

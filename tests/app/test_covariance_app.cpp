@@ -255,7 +255,13 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
            {{"-i", in, "--csv", out, "--self-calibrate-method", "bootstrap",
              "--self-calibrate-resampling", "block"},
             "--self-calibrate-resampling: unknown bootstrap resampling 'block', expected "
-            "parametric or wild"}}) {
+            "parametric or wild"},
+           {{"-i", in, "--csv", out, "--self-calibrate-depth-noise", "maybe"},
+            "--self-calibrate-depth-noise: maybe not in {on,off}"},
+           {{"-i", in, "--csv", out, "--self-calibrate-method", "bootstrap",
+             "--self-calibrate-depth-noise", "on"},
+            "the depths' noise term applies to the residual methods, not bootstrap (which "
+            "re-solves instead)"}}) {
     const AppResult r = run(args);
     EXPECT_EQ(r.code, 2) << r.err;
     EXPECT_TRUE(contains(r.err, "dba-covariance: " + message + "\n")) << r.err;

@@ -9,7 +9,9 @@
 // scale 100 (the test bed); `lowsnr` is the default scenario (48×64, sliding window of 8,
 // weight scale 4). "gt" fits one variance factor k = Σ NEES / Σ DoF (absolute samples) on the
 // calibration runs (as dba-evaluate --calibrate) and applies it to the held-out runs. Runs used:
-// calibration [R, R+M), evaluation [R+M, R+M+N).
+// calibration [R, R+M), evaluation [R+M, R+M+N). Method suffixes: -g<G> (nuisance's spline
+// nodes), -it<N> (passes), -cov (score's covariance metric), -wild (the bootstrap's wild
+// resampling), -d0 (without the depths' second-order noise term, on by default).
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -175,10 +177,10 @@ int main(int argc, char** argv) {
               c.bootstrap_resampling = BootstrapResampling::Wild;
               name.erase(name.find("-wild"), 5);
             }
-            // "-d2": with the depths' second-order noise term.
-            if (name.find("-d2") != std::string::npos) {
-              c.depth_noise = true;
-              name.erase(name.find("-d2"), 3);
+            // "-d0": without the depths' second-order noise term (on by default).
+            if (name.find("-d0") != std::string::npos) {
+              c.depth_noise = false;
+              name.erase(name.find("-d0"), 3);
             }
             // "-g<G>": nuisance with the affine field + a G × G tent spline (G = 0: affine only).
             if (name.find("-g") != std::string::npos) {

@@ -36,6 +36,15 @@ SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
                                   "bootstrap method only, not " + toString(o.method));
     o.bootstrap_resampling = parseEnum<BootstrapResampling>(resampling);
   }
+  if (!depth_noise.empty()) {
+    if (depth_noise != "on" && depth_noise != "off")
+      throw std::invalid_argument("self-calibration depth noise is on or off, not '" + depth_noise +
+                                  "'");
+    if (depth_noise == "on" && o.method == SelfCalibrationMethod::Bootstrap)
+      throw std::invalid_argument(std::string("the depths' noise term applies to the residual ") +
+                                  "methods, not bootstrap (which re-solves instead)");
+    o.depth_noise = depth_noise == "on";
+  }
   o.validate();
   return o;
 }
@@ -91,6 +100,13 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
                      "; wild = each row's own residual with a random sign); implies "
                      "--self-calibrate")
       ->check(enumValidator<BootstrapResampling>())
+      ->each([&o](const std::string&) { o.enabled = true; });
+  cli.add_option("--self-calibrate-depth-noise", o.depth_noise,
+                 std::string("on|off: add the depths' second-order noise term, what the "
+                             "linearization misses where depths are poorly determined (default ") +
+                     (SelfCalibrationOptions{}.depth_noise ? "on" : "off") +
+                     "; not with bootstrap); implies --self-calibrate")
+      ->check(CLI::IsMember({"on", "off"}))
       ->each([&o](const std::string&) { o.enabled = true; });
   if (!outputs) return;
   cli.add_option("--edge-csv", o.edge_csv,
@@ -171,6 +187,8 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     boot_scales_.push_back(cal.bootstrap_scale);
     boot_failed_ += cal.bootstrap_failed;
   }
+  if (cal.depth_noise && cal.method != SelfCalibrationMethod::Bootstrap)
+    depth_shares_.push_back(cov->summary().self_calibration.depth_noise_share);
   steps_.push_back(cal.optimum.step_sigma / std::sqrt(std::max(1, cal.optimum.free_dof)));
   ++snapshots_;
   unreliable_ += unreliable;
@@ -224,6 +242,9 @@ std::string SelfCalibrationRun::summaryLine() const {
     if (boot_failed_) os << ", " << boot_failed_ << " unconverged left out";
     os << ")";
   }
+  if (!depth_shares_.empty())
+    os << ", depths' second-order term median +" << number(100 * median(depth_shares_))
+       << " % of the covariance's trace";
   if (snapshots_ > 0) os << ", " << number(seconds_ / snapshots_) << " s per snapshot";
   if (!steps_.empty())
     os << ", Gauss-Newton step to the optimum median " << number(median(steps_))

@@ -1,12 +1,15 @@
 // The depths' second-order noise term (depth_noise.h). One scalar pass over the kept depths of
 // every source keyframe, in the edges' coordinates (J_i = −J_j Ad(T_ji), as the kernel): per edge
-// the 6 × 6 sum of J'_jᵀ Λ J'_j / h, per source the 6E × 6E sum of the depth couplings' outer
-// products, mapped to the touched slots once per source.
+// the 6 × 6 sum of J'_jᵀ Λ J'_j / h, per source the 6E × 6E sums of the depth couplings' and the
+// curvature scores' outer products (blocked products over the kept depths), mapped to the
+// touched slots once per source.
 #include "dbacov/core/depth_noise.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "dbacov/core/dba_factor.h"
+#include "dbacov/core/dot_products.h"
 #include "dbacov/core/parallel.h"
 #include "dbacov/core/se3.h"
 
@@ -75,11 +78,19 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   const std::size_t HW = s.pixelsPerFrame();
   const float* disps = &s.disps[static_cast<std::size_t>(src) * HW];
   std::vector<Matrix6d> A(E, Matrix6d::Zero());
-  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(6 * E, 6 * E);  // Σ c cᵀ / h², lower triangle
+  // Per kept depth, in the edges' coordinates: c/h (the coupling of M) and v/(√2 h) (the
+  // curvature score g = Γ v of N), one row each (each column contiguous over the depths), so
+  // that Σ c cᵀ/h² and Σ v vᵀ/(2h²) are two symmetric products over the depths in the kernel's
+  // dot products, and Γ is applied once per source, not per pixel (rank-1 updates and Γ per
+  // pixel were most of the term's cost).
+  const Eigen::Index P = static_cast<Eigen::Index>(dt.pixel.size());
+  Eigen::MatrixXd Cm(P, 6 * E), Vm(P, 6 * E);
+  Eigen::VectorXd vsum = Eigen::VectorXd::Zero(6 * E);  // Σ v / (2h)
   Eigen::VectorXd c(6 * E), u(6 * E), bq(6 * E);
+  Eigen::Index cols = 0;
   for (std::size_t k = 0; k < dt.pixel.size(); ++k) {
     const int p = dt.pixel[k];
-    const double h = dt.h[k], d = disps[p];
+    const double h = dt.h[k], inv_h = 1.0 / h, d = disps[p];
     const double x = p % s.W, y = p / s.W;
     c.setZero();
     u.setZero();
@@ -101,7 +112,7 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
           pixelFactorJacobianDepthDerivative(Y, er.t, K.fx, K.fy, d, &rdd);
       const Eigen::Matrix<double, 6, 2> JpL = Jp.transpose() * lam.asDiagonal();
       const Eigen::Matrix<double, 6, 2> JjL = f.J_j.transpose() * lam.asDiagonal();
-      A[q].noalias() += (JpL * Jp) / h;
+      A[q].noalias() += (JpL * inv_h) * Jp;  // one scaling of 12, not a division of 36
       c.segment<6>(6 * q) = JpL * f.J_d;
       u.segment<6>(6 * q) = JjL * rdd;
       bq.segment<6>(6 * q) = JjL * f.J_d;
@@ -110,14 +121,21 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     }
     if (!any) continue;
     ++out.depths;
-    C.selfadjointView<Eigen::Lower>().rankUpdate(c, 1.0 / (h * h));
-    const Eigen::VectorXd g = Gamma * (u - bq * (sdd / h));
-    out.N.selfadjointView<Eigen::Lower>().rankUpdate(g, 0.5 / (h * h));
-    out.bias.noalias() -= g / (2.0 * h);
+    Cm.row(cols) = c.transpose() / h;
+    Vm.row(cols) = (u - bq * (sdd / h)).transpose() * (std::sqrt(0.5) / h);
+    vsum.noalias() += (u - bq * (sdd / h)) / (2.0 * h);
+    ++cols;
   }
-  C.triangularView<Eigen::StrictlyUpper>() = C.transpose();
-  out.N.triangularView<Eigen::StrictlyUpper>() = out.N.transpose();
+  // gemmNT writes the row-major lower triangle: Eigen's upper one, mirrored below.
+  const int m6 = 6 * E, kept = static_cast<int>(cols);
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(m6, m6), V = Eigen::MatrixXd::Zero(m6, m6);
+  kernel::gemmNT(m6, m6, kept, Cm.data(), P, Cm.data(), P, C.data(), m6, true);
+  kernel::gemmNT(m6, m6, kept, Vm.data(), P, Vm.data(), P, V.data(), m6, true);
+  C.triangularView<Eigen::StrictlyLower>() = C.transpose();
+  V.triangularView<Eigen::StrictlyLower>() = V.transpose();
   out.M.noalias() -= Gamma * C * Gamma.transpose();
+  out.N.noalias() = Gamma * V * Gamma.transpose();
+  out.bias.noalias() = -(Gamma * vsum);
   for (int q = 0; q < E; ++q) {
     const auto G = Gamma.middleCols<6>(6 * q);
     out.M.noalias() += G * A[q] * G.transpose();

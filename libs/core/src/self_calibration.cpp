@@ -1286,7 +1286,9 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
       so.linearization = std::make_shared<const DbaNormalEquations>(std::move(mi.ne));
       on = &inflated;
     }
-    V += Sigma1 + Sigma1 * (Mr + Nr) * Sigma1 - m.Sigma_r;
+    const Eigen::MatrixXd term = Sigma1 + Sigma1 * (Mr + Nr) * Sigma1 - m.Sigma_r;
+    if (V.trace() > 0) summary.depth_noise_share = term.trace() / V.trace();
+    V += term;
     V = 0.5 * (V + V.transpose()).eval();
     so.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
     DbaCovariance cov(*on, o, so);

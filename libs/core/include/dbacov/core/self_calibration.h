@@ -147,8 +147,9 @@ struct SelfCalibrationOptions {
   /// Adds the depths' second-order noise term (depth_noise.h, README) of each edge's white noise
   /// to the calibrated covariance: what the linearization misses where the depths are poorly
   /// determined (white noise 2x, the low-SNR scene). Not with the bootstrap, which re-solves.
-  /// Off by default until its held-out study is complete (README).
-  bool depth_noise = false;
+  /// On by default: held out, it brings white 2x and the low-SNR scene inside their regions and
+  /// moves no other source out (README).
+  bool depth_noise = true;
   double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
   double max_inflation = 1e9;
   /// Throws std::invalid_argument for values out of their domain.

@@ -21,6 +21,9 @@ struct LinearizationStats {
 struct SelfCalibrationSummary {
   std::string method;               ///< the method's name; empty: no self-calibration
   std::vector<double> edge_factor;  ///< per edge (snapshot order): variance inflation
+  /// The depths' second-order term's share of the reduced covariance's trace (the term's trace
+  /// over the method's own); 0 when it was not applied (depth_noise off, or the bootstrap).
+  double depth_noise_share = 0;
 };
 
 struct CovarianceSummary {
