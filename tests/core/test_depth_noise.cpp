@@ -17,6 +17,7 @@
 #include "dbacov/sim/consistency.h"
 #include "dbacov/sim/monte_carlo.h"
 #include "dbacov/sim/scenario.h"
+#include "dbacov/sim/sensor_modes.h"
 #include "kernel_variants.h"
 
 namespace dbacov {
@@ -62,18 +63,17 @@ sim::ScenarioConfig scene(std::uint64_t seed, int H, int W, double weight_scale)
 
 /// M, N and the bias score summed factor by factor over the whole tangent: every factor's rows
 /// [J_i | J_j] placed in its slots by linearizePixelFactor, their depth derivatives by central
-/// differences of it, P⊥ as a dense projector over the depth's factors.
-TEST(DepthNoise, TermsMatchDenseReference) {
-  const sim::Scenario sc(scene(5, 12, 16, 100.0));
-  const sim::SimulatedSnapshot sim = sc.simulate(0, 3);
-  const Snapshot& s = sim.snapshot;
-  const DbaOptions o = sc.config().engineOptions();
+/// differences of it, P⊥ as a dense projector over the depth's factors. Stereo factors (the
+/// fixed rig) are rows with no pose part, RGB-D readings rows with J_d = −1 and no curvature:
+/// both only through the depth's information and (stereo) its second-order estimate.
+void expectTermsMatchDenseReference(const Snapshot& s, const DbaOptions& o) {
   const DbaNormalEquations ne = linearizeDba(s, o, true);
   const int n = static_cast<int>(ne.keyframes.size());
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(6 * n, 6 * n), N = M;
   Eigen::VectorXd bias = Eigen::VectorXd::Zero(6 * n);
   std::size_t depths = 0;
+  int stereo_rows = 0, sensor_rows = 0;
   const std::size_t HW = s.pixelsPerFrame();
   for (int src : s.graphKeyframes()) {
     for (std::size_t p = 0; p < HW; ++p) {
@@ -81,9 +81,11 @@ TEST(DepthNoise, TermsMatchDenseReference) {
                    y = static_cast<double>(p / s.W);
       std::vector<Eigen::RowVectorXd> J, Jp;
       std::vector<double> Jd, rdd, lam;
+      bool pose_factor = false;
       for (int e = 0; e < s.numEdges(); ++e) {
-        if (s.ii[e] != src || s.jj[e] == src) continue;
-        const Eigen::Isometry3d T_ji = s.T_cw(s.jj[e]) * s.T_cw(src).inverse();
+        if (s.ii[e] != src) continue;
+        const bool st = s.jj[e] == src;
+        const Eigen::Isometry3d T_ji = st ? s.stereoRig() : s.T_cw(s.jj[e]) * s.T_cw(src).inverse();
         const auto lin = [&](double dd) {
           PixelFactorLinearization f;
           linearizePixelFactor(T_ji.linear(), T_ji.translation(), K, x, y, dd, 0.0, 0.0, &f);
@@ -98,10 +100,15 @@ TEST(DepthNoise, TermsMatchDenseReference) {
           const double l = o.weight_scale * s.weightPlane(e, c)[p];
           if (!(l > 0)) continue;
           Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(6 * n), drow = row;
-          row.segment<6>(6 * a) = f.J_i.row(c);
-          row.segment<6>(6 * b) = f.J_j.row(c);
-          drow.segment<6>(6 * a) = (fp.J_i.row(c) - fm.J_i.row(c)) / (2 * step);
-          drow.segment<6>(6 * b) = (fp.J_j.row(c) - fm.J_j.row(c)) / (2 * step);
+          if (!st) {
+            row.segment<6>(6 * a) = f.J_i.row(c);
+            row.segment<6>(6 * b) = f.J_j.row(c);
+            drow.segment<6>(6 * a) = (fp.J_i.row(c) - fm.J_i.row(c)) / (2 * step);
+            drow.segment<6>(6 * b) = (fp.J_j.row(c) - fm.J_j.row(c)) / (2 * step);
+            pose_factor = true;
+          } else {
+            ++stereo_rows;
+          }
           J.push_back(row);
           Jp.push_back(drow);
           Jd.push_back(f.J_d[c]);
@@ -109,8 +116,16 @@ TEST(DepthNoise, TermsMatchDenseReference) {
           lam.push_back(l);
         }
       }
+      if (s.disps_sens && o.sensor_depth_weight > 0 && (*s.disps_sens)[src * HW + p] > 0 && d > 0) {
+        J.push_back(Eigen::RowVectorXd::Zero(6 * n));
+        Jp.push_back(Eigen::RowVectorXd::Zero(6 * n));
+        Jd.push_back(-1.0);
+        rdd.push_back(0.0);
+        lam.push_back(o.sensor_depth_weight);
+        ++sensor_rows;
+      }
       const int m = static_cast<int>(J.size());
-      if (m == 0) continue;
+      if (m == 0 || !pose_factor) continue;
       Eigen::MatrixXd A(m, 6 * n), Ap(m, 6 * n);
       Eigen::VectorXd jd(m), r2(m), w(m);
       for (int r = 0; r < m; ++r) {
@@ -132,6 +147,12 @@ TEST(DepthNoise, TermsMatchDenseReference) {
     }
   }
   ASSERT_GT(M.norm(), 0);
+  if (s.stereo_rig) {
+    ASSERT_GT(stereo_rows, 0) << "the snapshot has no stereo factor";
+  }
+  if (s.disps_sens) {
+    ASSERT_GT(sensor_rows, 0) << "the snapshot has no sensor depth";
+  }
   // The sums over the depths run in the kernel's dot products: every variant this CPU runs.
   testing::forEachKernelIsa([&](kernel::Isa) {
     const DepthNoiseTerms dn = depthNoiseTerms(s, o, ne);
@@ -143,10 +164,45 @@ TEST(DepthNoise, TermsMatchDenseReference) {
     // with the noise variance only through S⁻¹).
     DbaOptions o4 = o;
     o4.weight_scale *= 4;
+    o4.sensor_depth_weight *= 4;
     const DepthNoiseTerms dn4 = depthNoiseTerms(s, o4, linearizeDba(s, o4, true));
     EXPECT_LE((dn4.M - dn.M).norm(), 1e-9 * dn.M.norm());
     EXPECT_LE((dn4.N - dn.N).norm(), 1e-9 * dn.M.norm());
   });
+}
+
+TEST(DepthNoise, TermsMatchDenseReference) {
+  const sim::Scenario sc(scene(5, 12, 16, 100.0));
+  const Snapshot mono = sc.simulate(0, 3).snapshot;
+  const DbaOptions o = sc.config().engineOptions();
+  {
+    SCOPED_TRACE("mono");
+    expectTermsMatchDenseReference(mono, o);
+  }
+  {
+    // Stereo factors' curvature enters the depth's second-order estimate (N, the bias); a
+    // version that left them out fails here. A rectified rig (a pure x baseline) keeps Y.z
+    // fixed, so its factors are linear in the inverse depth: the rig here is not rectified.
+    SCOPED_TRACE("stereo");
+    Snapshot st = mono;
+    sim::StereoConfig cfg;
+    cfg.T_rig = Eigen::Translation3d(-0.1, 0.01, 0.04) *
+                Eigen::AngleAxisd(0.05, Eigen::Vector3d(0.2, 1.0, 0.1).normalized());
+    cfg.weight_scale = o.weight_scale;
+    sim::addStereoEdges(st, cfg);
+    st.validate();
+    expectTermsMatchDenseReference(st, o);
+  }
+  {
+    SCOPED_TRACE("rgbd");
+    Snapshot rgbd = mono;
+    sim::RgbdConfig rc;
+    sim::addSensorDepth(rgbd, rc);
+    rgbd.validate();
+    DbaOptions orgbd = o;
+    orgbd.sensor_depth_weight = rc.alpha;
+    expectTermsMatchDenseReference(rgbd, orgbd);
+  }
 }
 
 /// The free keyframes' joint covariance (6 per free keyframe, in graph order) from the query

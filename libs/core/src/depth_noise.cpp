@@ -53,8 +53,10 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     Matrix6d Ad;
   };
   std::vector<EdgeRef> edges;
+  std::vector<int> stereo;  // (src, src): the fixed rig, a factor on the depth alone
   const Eigen::Isometry3d T_wc_src = s.T_cw(src).inverse();
   for (int e = 0; e < s.numEdges(); ++e) {
+    if (s.ii[e] == src && s.jj[e] == src) stereo.push_back(e);
     if (s.ii[e] != src || s.jj[e] == src) continue;
     const int slot = ne.slot_of[s.jj[e]];
     const auto it = std::find(dt.touched.begin(), dt.touched.end(), slot);
@@ -75,6 +77,7 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     Gamma.block<6, 6>(6 * edges[q].target, 6 * q).setIdentity();
   }
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
+  const Eigen::Isometry3d rig = stereo.empty() ? Eigen::Isometry3d::Identity() : s.stereoRig();
   const std::size_t HW = s.pixelsPerFrame();
   const float* disps = &s.disps[static_cast<std::size_t>(src) * HW];
   std::vector<Matrix6d> A(E, Matrix6d::Zero());
@@ -120,6 +123,21 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
       any = true;
     }
     if (!any) continue;
+    // A stereo factor has no pose Jacobian (nothing in c, u, bq), but its curvature moves the
+    // depth's second-order estimate as any other factor's does. (RGB-D readings are linear in
+    // the inverse depth: nothing.)
+    for (int e : stereo) {
+      const Eigen::Vector3d Y = transferPoint(rig.linear(), rig.translation(), K, x, y, d);
+      if (!keepPixelFactor(o, d, Y.z())) continue;
+      const Eigen::Vector2d lam(o.weight_scale * s.weightPlane(e, 0)[p],
+                                o.weight_scale * s.weightPlane(e, 1)[p]);
+      if (!(lam[0] > 0) && !(lam[1] > 0)) continue;
+      PixelFactorLinearization f;
+      linearizePixelFactorAt(Y, rig.translation(), K, d, 0.0, 0.0, &f);
+      Eigen::Vector2d rdd;
+      pixelFactorJacobianDepthDerivative(Y, rig.translation(), K.fx, K.fy, d, &rdd);
+      sdd += f.J_d.dot(lam.asDiagonal() * rdd);
+    }
     ++out.depths;
     Cm.row(cols) = c.transpose() / h;
     Vm.row(cols) = (u - bq * (sdd / h)).transpose() * (std::sqrt(0.5) / h);
