@@ -79,7 +79,8 @@ def Covariance(snapshot, preset="droid", **options):
     bootstrap_scale, bootstrap_replicates and bootstrap_failed to the dict;
     converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one).
     The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,
-    depth_noise (applied or not), depth_noise_share (the term's share of the covariance's trace),
+    depth_noise (applied or not), depth_noise_share (what it adds to the trace of the method's own covariance, a fraction),
+    depth_noise_kurtosis (the residuals' excess kurtosis the term used),
     edges: one array per --edge-csv column; nuisance adds field_sigma, field_fine_sigma (px)
     and field_params)."""
     if not isinstance(snapshot, _Snapshot):

@@ -462,6 +462,7 @@ PYBIND11_MODULE(_dbacov, m) {
             d["depth_noise"] = c.calibration->depth_noise &&
                                c.calibration->method != SelfCalibrationMethod::Bootstrap;
             d["depth_noise_share"] = c.cov->summary().self_calibration.depth_noise_share;
+            d["depth_noise_kurtosis"] = c.cov->summary().self_calibration.depth_noise_kurtosis;
             return std::move(d);
           })
       .def_property_readonly("converged",

@@ -138,7 +138,8 @@ def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
     r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"), "--self-calibrate")
     assert r.returncode == 0, r.stderr
     share = 100 * on.self_calibration["depth_noise_share"]
-    assert f"depths' second-order term median +{share:.6g} % of the covariance's trace" in r.stderr
+    assert f"depths' second-order term median +{share:.6g} % on the calibrated trace (residual excess kurtosis median" in r.stderr
+    assert on.self_calibration["depth_noise_kurtosis"] >= 0
     r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"),
                 "--self-calibrate-depth-noise", "off")
     assert r.returncode == 0 and "second-order" not in r.stderr, r.stderr
@@ -173,6 +174,12 @@ def test_bootstrap_method_reports_its_scales(sim_dir):
     assert wild["bootstrap_replicates"] + wild["bootstrap_failed"] == 8
     assert wild["bootstrap_replicates"] >= 4
     assert wild["bootstrap_scale"] != cal["bootstrap_scale"]
+    # The depths' term "off" is accepted with the bootstrap (which never adds it), "on" refused.
+    off = dbacov.Covariance(path, weight_scale=4, self_calibrate_method="bootstrap",
+                            self_calibrate_replicates=4,
+                            self_calibrate_depth_noise=False).self_calibration
+    assert off["depth_noise"] is False and off["depth_noise_share"] == 0
+    assert off["bootstrap_replicates"] + off["bootstrap_failed"] == 4
 
 
 # --- pose rawlogs -----------------------------------------------------------------------------

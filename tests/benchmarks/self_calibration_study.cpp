@@ -177,6 +177,11 @@ int main(int argc, char** argv) {
               c.bootstrap_resampling = BootstrapResampling::Wild;
               name.erase(name.find("-wild"), 5);
             }
+            // "-k0": the depths' term without its fourth-cumulant share.
+            if (name.find("-k0") != std::string::npos) {
+              c.depth_noise_kurtosis = false;
+              name.erase(name.find("-k0"), 3);
+            }
             // "-d0": without the depths' second-order noise term (on by default).
             if (name.find("-d0") != std::string::npos) {
               c.depth_noise = false;

@@ -469,37 +469,43 @@ TEST(SelfCalibration, HandedLinearizationGivesTheSameCovariance) {
   const sim::Scenario sc(smallScenario(13, 24, 32));
   const sim::SimulatedSnapshot sim = sc.simulate(0, 0);
   const DbaOptions o = sc.config().engineOptions();
-  SelfCalibrationOptions c;
-  c.method = SelfCalibrationMethod::Nuisance;
-  const SelfCalibration cal = selfCalibrate(sim.snapshot, o, c);
-  ASSERT_TRUE(cal.linearization) << "the nuisance method hands over no linearization";
-  SelfCalibration fresh = cal;
-  fresh.linearization.reset();
-  CovarianceOptions depths;
-  depths.depth_variances = true;
-  const DbaCovariance handed = selfCalibratedCovariance(sim.snapshot, o, {}, cal),
-                      anew = selfCalibratedCovariance(sim.snapshot, o, {}, fresh),
-                      with_depths = selfCalibratedCovariance(sim.snapshot, o, depths, cal);
-  ASSERT_EQ(handed.keyframes(), anew.keyframes());
-  for (int k : anew.keyframes()) {
-    const Matrix6d want = anew.marginal(k);
-    EXPECT_LE((handed.marginal(k) - want).norm(), 1e-12 * (1e-300 + want.norm())) << k;
-    EXPECT_LE((with_depths.marginal(k) - want).norm(), 1e-12 * (1e-300 + want.norm())) << k;
+  // Both of selfCalibratedCovariance's paths for a reduced covariance: with the depths' term
+  // (the default) and without it.
+  for (bool depth_noise : {true, false}) {
+    SCOPED_TRACE(depth_noise ? "depth noise on" : "depth noise off");
+    SelfCalibrationOptions c;
+    c.method = SelfCalibrationMethod::Nuisance;
+    c.depth_noise = depth_noise;
+    const SelfCalibration cal = selfCalibrate(sim.snapshot, o, c);
+    ASSERT_TRUE(cal.linearization) << "the nuisance method hands over no linearization";
+    SelfCalibration fresh = cal;
+    fresh.linearization.reset();
+    CovarianceOptions depths;
+    depths.depth_variances = true;
+    const DbaCovariance handed = selfCalibratedCovariance(sim.snapshot, o, {}, cal),
+                        anew = selfCalibratedCovariance(sim.snapshot, o, {}, fresh),
+                        with_depths = selfCalibratedCovariance(sim.snapshot, o, depths, cal);
+    ASSERT_EQ(handed.keyframes(), anew.keyframes());
+    for (int k : anew.keyframes()) {
+      const Matrix6d want = anew.marginal(k);
+      EXPECT_LE((handed.marginal(k) - want).norm(), 1e-12 * (1e-300 + want.norm())) << k;
+      EXPECT_LE((with_depths.marginal(k) - want).norm(), 1e-12 * (1e-300 + want.norm())) << k;
+    }
+    // A calibration or a linearization of another snapshot is refused, not used.
+    SelfCalibration other = cal;
+    other.edges[1].j = other.edges[1].i;
+    EXPECT_THROW(selfCalibratedCovariance(sim.snapshot, o, {}, other), std::invalid_argument);
+    auto lin = std::make_shared<DbaNormalEquations>(*cal.linearization);
+    lin->keyframes.pop_back();
+    CovarianceOptions foreign;
+    foreign.reduced_covariance = cal.reduced_covariance;
+    foreign.linearization = lin;
+    EXPECT_THROW(DbaCovariance(sim.snapshot, o, foreign), std::invalid_argument);
+    const int src = static_cast<int>(sim.snapshot.ii[0]);
+    const std::vector<float> sd = with_depths.inverseDepthSigma(src);
+    ASSERT_EQ(sd.size(), sim.snapshot.pixelsPerFrame());
+    EXPECT_TRUE(std::any_of(sd.begin(), sd.end(), [](float v) { return v > 0; }));
   }
-  // A calibration or a linearization of another snapshot is refused, not used.
-  SelfCalibration other = cal;
-  other.edges[1].j = other.edges[1].i;
-  EXPECT_THROW(selfCalibratedCovariance(sim.snapshot, o, {}, other), std::invalid_argument);
-  auto lin = std::make_shared<DbaNormalEquations>(*cal.linearization);
-  lin->keyframes.pop_back();
-  CovarianceOptions foreign;
-  foreign.reduced_covariance = cal.reduced_covariance;
-  foreign.linearization = lin;
-  EXPECT_THROW(DbaCovariance(sim.snapshot, o, foreign), std::invalid_argument);
-  const int src = static_cast<int>(sim.snapshot.ii[0]);
-  const std::vector<float> sd = with_depths.inverseDepthSigma(src);
-  ASSERT_EQ(sd.size(), sim.snapshot.pixelsPerFrame());
-  EXPECT_TRUE(std::any_of(sd.begin(), sd.end(), [](float v) { return v > 0; }));
 }
 
 /// DROID's stereo edges (k, k) act on the depths alone and RGB-D sensor depths likewise: the
@@ -573,6 +579,8 @@ TEST(SelfCalibration, WrongWeightScaleIsCorrected) {
         selfCalibratedCovariance(sim.snapshot, right, {}, selfCalibrate(sim.snapshot, right, c));
     const DbaCovariance at_wrong =
         selfCalibratedCovariance(sim.snapshot, wrong, {}, selfCalibrate(sim.snapshot, wrong, c));
+    EXPECT_GT(at_right.summary().self_calibration.depth_noise_share, 0) << toString(m);
+    EXPECT_GT(at_wrong.summary().self_calibration.depth_noise_share, 0) << toString(m);
     for (int k : at_right.keyframes()) {
       const Matrix6d want = at_right.marginal(k);
       EXPECT_LE((at_wrong.marginal(k) - want).norm(), 1e-6 * (1e-300 + want.norm()))

@@ -187,8 +187,10 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     boot_scales_.push_back(cal.bootstrap_scale);
     boot_failed_ += cal.bootstrap_failed;
   }
-  if (cal.depth_noise && cal.method != SelfCalibrationMethod::Bootstrap)
+  if (cal.depth_noise && cal.method != SelfCalibrationMethod::Bootstrap) {
     depth_shares_.push_back(cov->summary().self_calibration.depth_noise_share);
+    kurtoses_.push_back(cov->summary().self_calibration.depth_noise_kurtosis);
+  }
   steps_.push_back(cal.optimum.step_sigma / std::sqrt(std::max(1, cal.optimum.free_dof)));
   ++snapshots_;
   unreliable_ += unreliable;
@@ -244,7 +246,8 @@ std::string SelfCalibrationRun::summaryLine() const {
   }
   if (!depth_shares_.empty())
     os << ", depths' second-order term median +" << number(100 * median(depth_shares_))
-       << " % of the covariance's trace";
+       << " % on the calibrated trace (residual excess kurtosis median "
+       << number(median(kurtoses_)) << ")";
   if (snapshots_ > 0) os << ", " << number(seconds_ / snapshots_) << " s per snapshot";
   if (!steps_.empty())
     os << ", Gauss-Newton step to the optimum median " << number(median(steps_))

@@ -35,10 +35,16 @@ Eigen::Matrix<double, 2, 6> pixelFactorJacobianDepthDerivative(const Eigen::Vect
 
 namespace {
 
+/// Per edge: rows and the sums of z² and z⁴ of the standardized residuals.
+struct EdgeMoments {
+  double rows = 0, s2 = 0, s4 = 0;
+};
+
 struct SourceTerms {
-  Eigen::MatrixXd M, N;
+  Eigen::MatrixXd M, N, Mk, Nk;
   Eigen::VectorXd bias;
   std::size_t depths = 0;
+  std::vector<std::pair<int, EdgeMoments>> moments;  ///< (edge, its moments)
 };
 
 SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalEquations& ne,
@@ -68,6 +74,8 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   const int E = static_cast<int>(edges.size());
   out.M = Eigen::MatrixXd::Zero(6 * T, 6 * T);
   out.N = Eigen::MatrixXd::Zero(6 * T, 6 * T);
+  out.Mk = Eigen::MatrixXd::Zero(6 * T, 6 * T);
+  out.Nk = Eigen::MatrixXd::Zero(6 * T, 6 * T);
   out.bias = Eigen::VectorXd::Zero(6 * T);
   if (E == 0) return out;
   // Γ (6T × 6E): an edge's 6 coordinates on the touched slots, source −Adᵀ, target I.
@@ -80,7 +88,8 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   const Eigen::Isometry3d rig = stereo.empty() ? Eigen::Isometry3d::Identity() : s.stereoRig();
   const std::size_t HW = s.pixelsPerFrame();
   const float* disps = &s.disps[static_cast<std::size_t>(src) * HW];
-  std::vector<Matrix6d> A(E, Matrix6d::Zero());
+  std::vector<Matrix6d> A(E, Matrix6d::Zero()), Ak(E, Matrix6d::Zero());
+  std::vector<EdgeMoments> mom(E), mom_st(stereo.size());
   // Per kept depth, in the edges' coordinates: c/h (the coupling of M) and v/(√2 h) (the
   // curvature score g = Γ v of N), one row each (each column contiguous over the depths), so
   // that Σ c cᵀ/h² and Σ v vᵀ/(2h²) are two symmetric products over the depths in the kernel's
@@ -88,6 +97,12 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   // pixel were most of the term's cost).
   const Eigen::Index P = static_cast<Eigen::Index>(dt.pixel.size());
   Eigen::MatrixXd Cm(P, 6 * E), Vm(P, 6 * E);
+  // The fourth-cumulant terms (depth_noise.h), per unit γ₂: Σ_f w_f β_f β_fᵀ with w_f =
+  // J_d,f²/h² and β_f = L_f − α_f c (L_f = Λ_f J'_f on its edge's 6 coordinates, α_f =
+  // Λ_f J_d,f/h) is Σ w L Lᵀ (per edge, Ak) − (ℓ cᵀ + c ℓᵀ) + s c cᵀ with ℓ = Σ w α L and
+  // s = Σ w α²: rows h ℓ (against Cm's c/h) and √s c; N's rows v · ½√(Σ Λ² J_d⁴)/h².
+  Eigen::MatrixXd Lm(P, 6 * E), Sm(P, 6 * E), Vk(P, 6 * E);
+  Eigen::VectorXd ell(6 * E);
   Eigen::VectorXd vsum = Eigen::VectorXd::Zero(6 * E);  // Σ v / (2h)
   Eigen::VectorXd c(6 * E), u(6 * E), bq(6 * E);
   Eigen::Index cols = 0;
@@ -98,8 +113,25 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     c.setZero();
     u.setZero();
     bq.setZero();
-    double sdd = 0;  // Σ J_dᵀ Λ r''
+    ell.setZero();
+    double sdd = 0;           // Σ J_dᵀ Λ r''
+    double sk = 0, l2j4 = 0;  // Σ w α², Σ Λ² J_d⁴
     bool any = false;
+    // One axis of a flow factor: the κ sums and the residual's moments (z² = Λ r² / (1 − Λ J_d²
+    // / h), the depth's leverage taken out; the poses' is small and left in).
+    const auto axis = [&](double lam, double jd, double r, EdgeMoments& m) {
+      const double alpha = lam * jd * inv_h, w = jd * jd * inv_h * inv_h;
+      sk += w * alpha * alpha;
+      l2j4 += lam * lam * jd * jd * jd * jd;
+      const double lev = lam * jd * jd * inv_h;
+      if (lev < 0.999) {
+        const double z2 = lam * r * r / (1.0 - lev);
+        m.rows += 1;
+        m.s2 += z2;
+        m.s4 += z2 * z2;
+      }
+      return w * alpha;
+    };
     for (int q = 0; q < E; ++q) {
       const EdgeRef& er = edges[q];
       const Eigen::Vector3d Y = transferPoint(er.R, er.t, K, x, y, d);
@@ -109,13 +141,21 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
       if (!(lx > 0) && !(ly > 0)) continue;
       const Eigen::Vector2d lam(lx, ly);
       PixelFactorLinearization f;
-      linearizePixelFactorAt(Y, er.t, K, d, 0.0, 0.0, &f);
+      linearizePixelFactorAt(Y, er.t, K, d, s.targetPlane(er.edge, 0)[p],
+                             s.targetPlane(er.edge, 1)[p], &f);
       Eigen::Vector2d rdd;
       const Eigen::Matrix<double, 2, 6> Jp =
           pixelFactorJacobianDepthDerivative(Y, er.t, K.fx, K.fy, d, &rdd);
       const Eigen::Matrix<double, 6, 2> JpL = Jp.transpose() * lam.asDiagonal();
       const Eigen::Matrix<double, 6, 2> JjL = f.J_j.transpose() * lam.asDiagonal();
       A[q].noalias() += (JpL * inv_h) * Jp;  // one scaling of 12, not a division of 36
+      for (int ch = 0; ch < 2; ++ch) {
+        if (!(lam[ch] > 0)) continue;
+        const double wa = axis(lam[ch], f.J_d[ch], f.r[ch], mom[q]);
+        const double w = f.J_d[ch] * f.J_d[ch] * inv_h * inv_h;
+        Ak[q].noalias() += w * JpL.col(ch) * JpL.col(ch).transpose();
+        ell.segment<6>(6 * q) += wa * JpL.col(ch);
+      }
       c.segment<6>(6 * q) = JpL * f.J_d;
       u.segment<6>(6 * q) = JjL * rdd;
       bq.segment<6>(6 * q) = JjL * f.J_d;
@@ -126,22 +166,29 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     // A stereo factor has no pose Jacobian (nothing in c, u, bq), but its curvature moves the
     // depth's second-order estimate as any other factor's does. (RGB-D readings are linear in
     // the inverse depth: nothing.)
-    for (int e : stereo) {
+    for (std::size_t si = 0; si < stereo.size(); ++si) {
+      const int e = stereo[si];
       const Eigen::Vector3d Y = transferPoint(rig.linear(), rig.translation(), K, x, y, d);
       if (!keepPixelFactor(o, d, Y.z())) continue;
       const Eigen::Vector2d lam(o.weight_scale * s.weightPlane(e, 0)[p],
                                 o.weight_scale * s.weightPlane(e, 1)[p]);
       if (!(lam[0] > 0) && !(lam[1] > 0)) continue;
       PixelFactorLinearization f;
-      linearizePixelFactorAt(Y, rig.translation(), K, d, 0.0, 0.0, &f);
+      linearizePixelFactorAt(Y, rig.translation(), K, d, s.targetPlane(e, 0)[p],
+                             s.targetPlane(e, 1)[p], &f);
       Eigen::Vector2d rdd;
       pixelFactorJacobianDepthDerivative(Y, rig.translation(), K.fx, K.fy, d, &rdd);
       sdd += f.J_d.dot(lam.asDiagonal() * rdd);
+      for (int ch = 0; ch < 2; ++ch)  // no pose part: L = 0, only α enters (s, N's κ term)
+        if (lam[ch] > 0) axis(lam[ch], f.J_d[ch], f.r[ch], mom_st[si]);
     }
     ++out.depths;
     Cm.row(cols) = c.transpose() / h;
     Vm.row(cols) = (u - bq * (sdd / h)).transpose() * (std::sqrt(0.5) / h);
     vsum.noalias() += (u - bq * (sdd / h)) / (2.0 * h);
+    Lm.row(cols) = ell.transpose() * h;
+    Sm.row(cols) = c.transpose() * std::sqrt(sk);
+    Vk.row(cols) = (u - bq * (sdd / h)).transpose() * (0.5 * std::sqrt(l2j4) * inv_h * inv_h);
     ++cols;
   }
   // gemmNT writes the row-major lower triangle: Eigen's upper one, mirrored below.
@@ -159,6 +206,24 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     out.M.noalias() += G * A[q] * G.transpose();
   }
   out.M = 0.5 * (out.M + out.M.transpose()).eval();
+  // The κ terms per unit γ₂.
+  Eigen::MatrixXd Sk = Eigen::MatrixXd::Zero(m6, m6), Vkk = Eigen::MatrixXd::Zero(m6, m6),
+                  X = Eigen::MatrixXd::Zero(m6, m6);
+  kernel::gemmNT(m6, m6, kept, Sm.data(), P, Sm.data(), P, Sk.data(), m6, true);
+  kernel::gemmNT(m6, m6, kept, Vk.data(), P, Vk.data(), P, Vkk.data(), m6, true);
+  kernel::gemmNT(m6, m6, kept, Lm.data(), P, Cm.data(), P, X.data(), m6);  // row-major Σ ℓ cᵀ
+  Sk.triangularView<Eigen::StrictlyLower>() = Sk.transpose();
+  Vkk.triangularView<Eigen::StrictlyLower>() = Vkk.transpose();
+  // X holds Σ ℓ cᵀ row-major, i.e. Σ c ℓᵀ in Eigen's column-major view: the symmetric sum
+  // X + Xᵀ is the same either way.
+  Eigen::MatrixXd Ke = Sk - X - X.transpose();
+  for (int q = 0; q < E; ++q) Ke.block<6, 6>(6 * q, 6 * q) += Ak[q];
+  out.Mk.noalias() = Gamma * Ke * Gamma.transpose();
+  out.Mk = 0.5 * (out.Mk + out.Mk.transpose()).eval();
+  out.Nk.noalias() = Gamma * Vkk * Gamma.transpose();
+  for (int q = 0; q < E; ++q) out.moments.emplace_back(edges[q].edge, mom[q]);
+  for (std::size_t si = 0; si < stereo.size(); ++si)
+    out.moments.emplace_back(stereo[si], mom_st[si]);
   return out;
 }
 
@@ -171,6 +236,8 @@ DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
   out.M = Eigen::MatrixXd::Zero(6 * n, 6 * n);
   out.N = Eigen::MatrixXd::Zero(6 * n, 6 * n);
   out.bias_score = Eigen::VectorXd::Zero(6 * n);
+  out.M_kurtosis = Eigen::MatrixXd::Zero(6 * n, 6 * n);
+  out.N_kurtosis = Eigen::MatrixXd::Zero(6 * n, 6 * n);
   std::vector<SourceTerms> per(ne.depths.size());
   parallelFor(ne.depths.size(),
               [&](std::size_t i) { per[i] = sourceTerms(s, o, ne, ne.depths[i]); });
@@ -182,10 +249,30 @@ DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
       for (int b = 0; b < T; ++b) {
         out.M.block<6, 6>(6 * touched[a], 6 * touched[b]) += per[i].M.block<6, 6>(6 * a, 6 * b);
         out.N.block<6, 6>(6 * touched[a], 6 * touched[b]) += per[i].N.block<6, 6>(6 * a, 6 * b);
+        out.M_kurtosis.block<6, 6>(6 * touched[a], 6 * touched[b]) +=
+            per[i].Mk.block<6, 6>(6 * a, 6 * b);
+        out.N_kurtosis.block<6, 6>(6 * touched[a], 6 * touched[b]) +=
+            per[i].Nk.block<6, 6>(6 * a, 6 * b);
       }
     }
     out.depths += per[i].depths;
   }
+  // γ₂ pooled over the edges (each edge's own scale: m4 / m2²), in edge order.
+  std::vector<EdgeMoments> edge_moments(s.numEdges());
+  for (const SourceTerms& st : per)
+    for (const auto& [e, m] : st.moments) {
+      edge_moments[e].rows += m.rows;
+      edge_moments[e].s2 += m.s2;
+      edge_moments[e].s4 += m.s4;
+    }
+  double rows = 0, ratio = 0;
+  for (const EdgeMoments& m : edge_moments) {
+    if (m.rows < 8 || !(m.s2 > 0)) continue;
+    const double m2 = m.s2 / m.rows, m4 = m.s4 / m.rows;
+    ratio += m.rows * m4 / (m2 * m2);
+    rows += m.rows;
+  }
+  if (rows > 0) out.kurtosis = std::max(0.0, ratio / rows - 3.0);
   return out;
 }
 

@@ -1091,6 +1091,7 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
   SelfCalibration out;
   out.method = c.method;
   out.depth_noise = c.depth_noise;
+  out.depth_noise_kurtosis = c.depth_noise_kurtosis;
   out.edges.resize(E);
   for (int e = 0; e < E; ++e) {
     out.edges[e].edge = e;
@@ -1255,16 +1256,40 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     DenseModel m = buildModel(si, o, true);
     const DepthNoiseTerms dn = depthNoiseTerms(si, o, m.ne);
     const Eigen::MatrixXd Mr = m.basis.transpose() * dn.M * m.basis;
-    const Eigen::MatrixXd Nr = m.basis.transpose() * dn.N * m.basis;
-    // The information at the true depths, E[S(d̂)] − M, inverted; the score's variance
-    // S + M + N around it (a sandwich). Where S − M is not positive definite (M as large as the
-    // information itself), its first-order inverse S⁻¹ + S⁻¹ M S⁻¹.
-    const Eigen::MatrixXd S1 = m.Sr - Mr;
-    const Eigen::LLT<Eigen::MatrixXd> llt1(S1);
-    const Eigen::MatrixXd Sigma1 =
-        llt1.info() == Eigen::Success
-            ? Eigen::MatrixXd(llt1.solve(Eigen::MatrixXd::Identity(S1.rows(), S1.cols())))
-            : Eigen::MatrixXd(m.Sigma_r + m.Sigma_r * Mr * m.Sigma_r);
+    Eigen::MatrixXd Nr = m.basis.transpose() * dn.N * m.basis;
+    // The variance's fourth-cumulant share (heavy tails; depth_noise.h): in M + N only, H keeps
+    // the Gaussian M.
+    Eigen::MatrixXd Mv = Mr;
+    if (cal.depth_noise_kurtosis && dn.kurtosis > 0) {
+      Mv += dn.kurtosis * (m.basis.transpose() * dn.M_kurtosis * m.basis);
+      Nr += dn.kurtosis * (m.basis.transpose() * dn.N_kurtosis * m.basis);
+    }
+    // The information at the true depths, H = E[S(d̂)] − M, inverted; the score's variance
+    // S + M + N around it (a sandwich). In S's whitened coordinates L⁻¹ M L⁻ᵀ = Q diag(ρ) Qᵀ
+    // (ρ: the share of a direction's information the depths' noise takes) and
+    // H⁻¹ = L⁻ᵀ Q diag(1/(1 − ρ)) Qᵀ L⁻¹. The expansion is second order: beyond ρ = ½ it is not
+    // trusted and 1/(1 − ρ) is held at 2, continuously (a switch to the first-order inverse
+    // where S − M stops being positive definite made the covariance blow up just before it
+    // and drop at it).
+    Eigen::MatrixXd Sigma1;
+    {
+      const Eigen::LLT<Eigen::MatrixXd> lltS(m.Sr);
+      if (lltS.info() != Eigen::Success)
+        throw NumericalError(s.source +
+                                 ": the reduced information matrix S is not positive definite "
+                                 "(depths' noise term)",
+                             m.ne.keyframes);
+      const Eigen::MatrixXd Li =
+          lltS.matrixL().solve(Eigen::MatrixXd::Identity(m.Sr.rows(), m.Sr.cols()));  // L⁻¹
+      Eigen::MatrixXd W = Li * Mr * Li.transpose();
+      W = 0.5 * (W + W.transpose()).eval();
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(W);
+      const Eigen::VectorXd f = es.eigenvalues().unaryExpr(
+          [](double rho) { return 1.0 / (1.0 - std::clamp(rho, 0.0, 0.9)); });
+      const Eigen::MatrixXd QtLi = es.eigenvectors().transpose() * Li;
+      Sigma1 = QtLi.transpose() * f.asDiagonal() * QtLi;
+      summary.depth_noise_max_rho = es.eigenvalues().maxCoeff();
+    }
     // The method's own covariance and the snapshot and linearization the query API answers on:
     // sandwich's and nuisance's reduced one on the snapshot; else that of its inflations, which
     // are the white factors (vce) or go beyond them (score, autocorr: a model of their own).
@@ -1286,8 +1311,9 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
       so.linearization = std::make_shared<const DbaNormalEquations>(std::move(mi.ne));
       on = &inflated;
     }
-    const Eigen::MatrixXd term = Sigma1 + Sigma1 * (Mr + Nr) * Sigma1 - m.Sigma_r;
+    const Eigen::MatrixXd term = Sigma1 + Sigma1 * (Mv + Nr) * Sigma1 - m.Sigma_r;
     if (V.trace() > 0) summary.depth_noise_share = term.trace() / V.trace();
+    summary.depth_noise_kurtosis = cal.depth_noise_kurtosis ? dn.kurtosis : 0.0;
     V += term;
     V = 0.5 * (V + V.transpose()).eval();
     so.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));

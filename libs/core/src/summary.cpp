@@ -59,7 +59,9 @@ std::string CovarianceSummary::full() const {
     os << "edge variance factors    " << factorRange(self_calibration.edge_factor) << '\n';
   if (self_calibration.depth_noise_share > 0)
     os << "depths' 2nd-order term   +" << 100 * self_calibration.depth_noise_share
-       << " % of the trace\n";
+       << " % on the calibrated trace (residual excess kurtosis "
+       << self_calibration.depth_noise_kurtosis << ", largest depth share of a direction "
+       << self_calibration.depth_noise_max_rho << ")\n";
   return os.str();
 }
 

@@ -150,6 +150,9 @@ struct SelfCalibrationOptions {
   /// On by default: held out, it brings white 2x and the low-SNR scene inside their regions and
   /// moves no other source out (README).
   bool depth_noise = true;
+  /// With depth_noise: the term's fourth-cumulant share, from the residuals' excess kurtosis
+  /// (heavy-tailed flow, outliers; depth_noise.h).
+  bool depth_noise_kurtosis = true;
   double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
   double max_inflation = 1e9;
   /// Throws std::invalid_argument for values out of their domain.
@@ -209,8 +212,10 @@ struct SelfCalibration {
   /// Nuisance: the linearization reduced_covariance was computed with (the snapshot's own, at its
   /// weights), so that selfCalibratedCovariance of the same snapshot does not linearize again.
   std::shared_ptr<const DbaNormalEquations> linearization;
-  /// The options' depth_noise: selfCalibratedCovariance adds the depths' second-order term.
+  /// The options' depth_noise: selfCalibratedCovariance adds the depths' second-order term;
+  /// depth_noise_kurtosis: with its fourth-cumulant share.
   bool depth_noise = false;
+  bool depth_noise_kurtosis = false;
   /// Per-edge inflations in edge order.
   std::vector<double> inflations() const;
 };

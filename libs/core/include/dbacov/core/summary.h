@@ -21,9 +21,15 @@ struct LinearizationStats {
 struct SelfCalibrationSummary {
   std::string method;               ///< the method's name; empty: no self-calibration
   std::vector<double> edge_factor;  ///< per edge (snapshot order): variance inflation
-  /// The depths' second-order term's share of the reduced covariance's trace (the term's trace
-  /// over the method's own); 0 when it was not applied (depth_noise off, or the bootstrap).
+  /// What the depths' second-order term adds to the trace: its trace over the trace of the
+  /// method's own covariance, in the gauge's reduced coordinates (so m² and rad² add up; may
+  /// exceed 1); 0 when it was not applied (depth_noise off, or the bootstrap).
   double depth_noise_share = 0;
+  /// The term's inputs: the residuals' excess kurtosis γ₂ it used (0: Gaussian tails, or not
+  /// applied) and the largest share ρ of a direction's information the depths' noise takes
+  /// (beyond ½ the second-order expansion is held at ½; depth_noise.h).
+  double depth_noise_kurtosis = 0;
+  double depth_noise_max_rho = 0;
 };
 
 struct CovarianceSummary {

@@ -18,6 +18,17 @@
 // whose relative size grows with the noise variance (M and N do not change when every weight
 // is scaled; S⁻¹ does): negligible where the depths are well determined, the bulk of the
 // over-confidence where they are not (white noise at 2×, the low-SNR scene).
+//
+// Heavy tails. M and N above hold for Gaussian noise, where δ_k and P⊥ε are independent. For
+// independent rows with fourth cumulant κ_f = γ₂ σ_f⁴ (γ₂ the excess kurtosis) they are only
+// uncorrelated, and the two variances gain
+//   M_γ = γ₂ Σ_k Σ_f (J_d,f² / h_k²) β_f β_fᵀ,   β_f = Λ_f J'_f − a_k Λ_f J_d,f / h_k (per axis),
+//   N_γ = γ₂ Σ_k (¼ Σ_f Λ_f² J_d,f⁴ / h_k⁴) g_k g_kᵀ,
+// (Var(δ P⊥ε) and Var(δ²) have a κ term each), while H = S − M keeps its Gaussian form (E[S(d̂)]
+// needs only Var δ). γ₂ is estimated from the standardized residuals z_f = √Λ_f r_f /
+// √(1 − Λ_f J_d,f² / h_k), per edge (so that different edge scales are no kurtosis) and pooled.
+// An outlier pixel moves its depth far, and its depth moves the poses' Jacobians: this is what
+// the residual energy alone does not see.
 #pragma once
 
 #include <Eigen/Core>
@@ -41,6 +52,12 @@ struct DepthNoiseTerms {
   /// E[U] of the curvature term, Σ_k −g_k / (2 h_k): S⁻¹ of it is the O(σ²) bias of the poses.
   Eigen::VectorXd bias_score;
   std::size_t depths = 0;  ///< kept depths summed over
+  /// M_γ / γ₂ and N_γ / γ₂ (6n × 6n, symmetric PSD): the fourth-cumulant terms per unit excess
+  /// kurtosis.
+  Eigen::MatrixXd M_kurtosis, N_kurtosis;
+  /// γ₂: the standardized residuals' excess kurtosis, per edge with at least 8 rows, pooled
+  /// weighted by rows; clamped at 0 (lighter tails than Gaussian are not credited).
+  double kurtosis = 0;
 };
 
 /// The terms for the snapshot's weights (weight_scale · w) at its state. `ne` must be the
