@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <utility>
 
 #include <Eigen/Dense>
 
@@ -309,20 +310,17 @@ TEST(DepthNoise, CalibratedCovarianceAddsTheTermToEachMethod) {
     const DbaNormalEquations ne = linearizeDba(si, o, true);
     const DepthNoiseTerms dn = depthNoiseTerms(si, o, ne);
     const int n = static_cast<int>(free_w.size());
-    Eigen::MatrixXd Mf(6 * n, 6 * n), Nf(6 * n, 6 * n);
-    for (int a = 0; a < n; ++a)
-      for (int b = 0; b < n; ++b) {
-        const int sa = ne.slot_of[free_w[a]], sb = ne.slot_of[free_w[b]];
-        Mf.block<6, 6>(6 * a, 6 * b) = dn.M.block<6, 6>(6 * sa, 6 * sb);
-        Nf.block<6, 6>(6 * a, 6 * b) = dn.N.block<6, 6>(6 * sa, 6 * sb);
-      }
-    Eigen::MatrixXd Mkf(6 * n, 6 * n), Nkf(6 * n, 6 * n);
-    for (int a = 0; a < n; ++a)
-      for (int b = 0; b < n; ++b) {
-        const int sa = ne.slot_of[free_w[a]], sb = ne.slot_of[free_w[b]];
-        Mkf.block<6, 6>(6 * a, 6 * b) = dn.M_kurtosis.block<6, 6>(6 * sa, 6 * sb);
-        Nkf.block<6, 6>(6 * a, 6 * b) = dn.N_kurtosis.block<6, 6>(6 * sa, 6 * sb);
-      }
+    // A 6n × 6n term of depthNoiseTerms (slots of ne.keyframes) on the free keyframes.
+    const auto onFree = [&](const Eigen::MatrixXd& X) {
+      Eigen::MatrixXd F(6 * n, 6 * n);
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b)
+          F.block<6, 6>(6 * a, 6 * b) =
+              X.block<6, 6>(6 * ne.slot_of[free_w[a]], 6 * ne.slot_of[free_w[b]]);
+      return F;
+    };
+    const Eigen::MatrixXd Mf = onFree(dn.M), Nf = onFree(dn.N), Mkf = onFree(dn.M_kurtosis),
+                          Nkf = onFree(dn.N_kurtosis);
     ASSERT_GT(dn.kurtosis, 1.0) << "the targets are not heavy-tailed";
     // H = S − M keeps the Gaussian M; the variance M + N gains the κ terms.
     const Eigen::MatrixXd S1 = (Eigen::MatrixXd(Sw.inverse()) - Mf).inverse();
@@ -347,6 +345,27 @@ TEST(DepthNoise, CalibratedCovarianceAddsTheTermToEachMethod) {
   }
 }
 
+/// 40 runs of snapshot 0 of `sc` (noise seeds first_seed, first_seed + 1, ...), each evaluated
+/// with the self-calibrations a and b (nullptr: the raw covariance): the absolute samples'
+/// statistics of each, printed under their names.
+std::pair<ConsistencyStats, ConsistencyStats> monteCarloPair(
+    const sim::Scenario& sc, std::uint64_t first_seed, const char* name_a,
+    const SelfCalibrationOptions* a, const char* name_b, const SelfCalibrationOptions* b) {
+  const DbaOptions o = sc.config().engineOptions();
+  sim::EvaluationSamples sa, sb;
+  const int runs = 40;
+  for (int run = 0; run < runs; ++run) {
+    const sim::SimulatedSnapshot snap = sc.simulate(0, first_seed + run);
+    sa.append(sim::evaluateSnapshot(snap, o, run, sim::PairSelection::Consecutive, a));
+    sb.append(sim::evaluateSnapshot(snap, o, run, sim::PairSelection::Consecutive, b));
+  }
+  const ConsistencyStats x = summarize(sa.absolute), y = summarize(sb.absolute);
+  for (const auto& [name, st] : {std::pair(name_a, x), std::pair(name_b, y)})
+    std::printf("%-18s ANEES %.3f [%.3f, %.3f], 1 sigma %.3f, tail %.3f\n", name, st.anees,
+                st.region.lower, st.region.upper, st.coverage_all[0], st.tail_95);
+  return {x, y};
+}
+
 /// The claim, by Monte Carlo on runs no formula was fitted to: white noise 3x the claimed at
 /// weight scale 100 on a 24 x 32 grid, where the depths are poorly determined. vce finds the
 /// scale; without the depth-noise term the covariance is still over-confident (the linearization
@@ -355,23 +374,11 @@ TEST(SelfCalibrationMonteCarlo, DepthNoiseTermMakesStrongWhiteNoiseConsistent) {
   sim::ScenarioConfig cfg = scene(21, 24, 32, 100.0);
   cfg.noise.amplitude = 3.0;
   const sim::Scenario sc(cfg);
-  const DbaOptions o = sc.config().engineOptions();
   SelfCalibrationOptions with, without;
   with.method = without.method = SelfCalibrationMethod::Vce;
   with.depth_noise = true;
   without.depth_noise = false;
-  sim::EvaluationSamples a, b;
-  const int runs = 40;
-  for (int run = 0; run < runs; ++run) {
-    const sim::SimulatedSnapshot snap = sc.simulate(0, 100 + run);
-    a.append(sim::evaluateSnapshot(snap, o, run, sim::PairSelection::Consecutive, &with));
-    b.append(sim::evaluateSnapshot(snap, o, run, sim::PairSelection::Consecutive, &without));
-  }
-  const ConsistencyStats sa = summarize(a.absolute), sb = summarize(b.absolute);
-  std::printf("with the term: ANEES %.3f [%.3f, %.3f], 1 sigma %.3f, tail %.3f\n", sa.anees,
-              sa.region.lower, sa.region.upper, sa.coverage_all[0], sa.tail_95);
-  std::printf("without:       ANEES %.3f, 1 sigma %.3f, tail %.3f\n", sb.anees, sb.coverage_all[0],
-              sb.tail_95);
+  const auto [sa, sb] = monteCarloPair(sc, 100, "with the term:", &with, "without:", &without);
   EXPECT_GT(sb.anees, sb.region.upper) << "the scene does not test the term";
   EXPECT_TRUE(sa.inside) << sa.anees << " outside [" << sa.region.lower << ", " << sa.region.upper
                          << "]";
@@ -383,19 +390,9 @@ TEST(SelfCalibrationMonteCarlo, DepthNoiseTermMakesStrongWhiteNoiseConsistent) {
 /// 100-159 of this seed: raw 7.18, above its region [5.16, 6.91], with the term 6.24).
 TEST(SelfCalibrationMonteCarlo, DepthNoiseTermKeepsMatchingWhiteNoiseConsistent) {
   const sim::Scenario sc(scene(21, 24, 32, 100.0));
-  const DbaOptions o = sc.config().engineOptions();
   SelfCalibrationOptions c;
   c.method = SelfCalibrationMethod::Vce;
-  sim::EvaluationSamples a, raw;
-  const int runs = 40;
-  for (int run = 0; run < runs; ++run) {
-    const sim::SimulatedSnapshot snap = sc.simulate(0, 300 + run);
-    a.append(sim::evaluateSnapshot(snap, o, run, sim::PairSelection::Consecutive, &c));
-    raw.append(sim::evaluateSnapshot(snap, o, run, sim::PairSelection::Consecutive, nullptr));
-  }
-  const ConsistencyStats sa = summarize(a.absolute), sr = summarize(raw.absolute);
-  std::printf("with the term: ANEES %.3f [%.3f, %.3f], 1 sigma %.3f, tail %.3f; raw %.3f\n",
-              sa.anees, sa.region.lower, sa.region.upper, sa.coverage_all[0], sa.tail_95, sr.anees);
+  const auto [sa, sr] = monteCarloPair(sc, 300, "with the term:", &c, "raw:", nullptr);
   EXPECT_TRUE(sa.inside) << sa.anees << " outside [" << sa.region.lower << ", " << sa.region.upper
                          << "]";
   EXPECT_LT(sa.anees, sr.anees) << "the term must widen the covariance";
@@ -412,22 +409,11 @@ TEST(SelfCalibrationMonteCarlo, DepthNoiseKurtosisMakesOutliersConsistent) {
   cfg.noise.outlier_fraction = 0.02;
   cfg.noise.outlier_factor = 10.0;
   const sim::Scenario sc(cfg);
-  const DbaOptions o = sc.config().engineOptions();
   SelfCalibrationOptions with, gaussian;
   with.method = gaussian.method = SelfCalibrationMethod::Vce;
   gaussian.depth_noise_kurtosis = false;
-  sim::EvaluationSamples a, b;
-  const int runs = 40;
-  for (int run = 0; run < runs; ++run) {
-    const sim::SimulatedSnapshot snap = sc.simulate(0, 500 + run);
-    a.append(sim::evaluateSnapshot(snap, o, run, sim::PairSelection::Consecutive, &with));
-    b.append(sim::evaluateSnapshot(snap, o, run, sim::PairSelection::Consecutive, &gaussian));
-  }
-  const ConsistencyStats sa = summarize(a.absolute), sb = summarize(b.absolute);
-  std::printf("with the kurtosis: ANEES %.3f [%.3f, %.3f], 1 sigma %.3f, tail %.3f\n", sa.anees,
-              sa.region.lower, sa.region.upper, sa.coverage_all[0], sa.tail_95);
-  std::printf("Gaussian term:     ANEES %.3f, 1 sigma %.3f, tail %.3f\n", sb.anees,
-              sb.coverage_all[0], sb.tail_95);
+  const auto [sa, sb] =
+      monteCarloPair(sc, 500, "with the kurtosis:", &with, "Gaussian term:", &gaussian);
   EXPECT_GT(sb.anees, sb.region.upper) << "the scene does not test the kurtosis";
   EXPECT_LT(sa.anees, 0.75 * sb.anees) << "the kurtosis share removes less than a quarter";
   EXPECT_GT(sa.anees, sa.region.lower) << "the kurtosis share overshoots";

@@ -183,21 +183,25 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
         if (lam[ch] > 0) axis(lam[ch], f.J_d[ch], f.r[ch], mom_st[si]);
     }
     ++out.depths;
+    const Eigen::VectorXd v = u - bq * (sdd / h);  // the curvature score in edge coordinates
     Cm.row(cols) = c.transpose() / h;
-    Vm.row(cols) = (u - bq * (sdd / h)).transpose() * (std::sqrt(0.5) / h);
-    vsum.noalias() += (u - bq * (sdd / h)) / (2.0 * h);
+    Vm.row(cols) = v.transpose() * (std::sqrt(0.5) / h);
+    vsum.noalias() += v / (2.0 * h);
     Lm.row(cols) = ell.transpose() * h;
     Sm.row(cols) = c.transpose() * std::sqrt(sk);
-    Vk.row(cols) = (u - bq * (sdd / h)).transpose() * (0.5 * std::sqrt(l2j4) * inv_h * inv_h);
+    Vk.row(cols) = v.transpose() * (0.5 * std::sqrt(l2j4) * inv_h * inv_h);
     ++cols;
   }
-  // gemmNT writes the row-major lower triangle: Eigen's upper one, mirrored below.
   const int m6 = 6 * E, kept = static_cast<int>(cols);
-  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(m6, m6), V = Eigen::MatrixXd::Zero(m6, m6);
-  kernel::gemmNT(m6, m6, kept, Cm.data(), P, Cm.data(), P, C.data(), m6, true);
-  kernel::gemmNT(m6, m6, kept, Vm.data(), P, Vm.data(), P, V.data(), m6, true);
-  C.triangularView<Eigen::StrictlyLower>() = C.transpose();
-  V.triangularView<Eigen::StrictlyLower>() = V.transpose();
+  // Σ over the kept depths of row rowᵀ, symmetric: gemmNT writes the row-major lower triangle
+  // (Eigen's upper one), mirrored below.
+  const auto gram = [&](const Eigen::MatrixXd& rows) {
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(m6, m6);
+    kernel::gemmNT(m6, m6, kept, rows.data(), P, rows.data(), P, G.data(), m6, true);
+    G.triangularView<Eigen::StrictlyLower>() = G.transpose();
+    return G;
+  };
+  const Eigen::MatrixXd C = gram(Cm), V = gram(Vm);
   out.M.noalias() -= Gamma * C * Gamma.transpose();
   out.N.noalias() = Gamma * V * Gamma.transpose();
   out.bias.noalias() = -(Gamma * vsum);
@@ -207,13 +211,9 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   }
   out.M = 0.5 * (out.M + out.M.transpose()).eval();
   // The κ terms per unit γ₂.
-  Eigen::MatrixXd Sk = Eigen::MatrixXd::Zero(m6, m6), Vkk = Eigen::MatrixXd::Zero(m6, m6),
-                  X = Eigen::MatrixXd::Zero(m6, m6);
-  kernel::gemmNT(m6, m6, kept, Sm.data(), P, Sm.data(), P, Sk.data(), m6, true);
-  kernel::gemmNT(m6, m6, kept, Vk.data(), P, Vk.data(), P, Vkk.data(), m6, true);
+  const Eigen::MatrixXd Sk = gram(Sm), Vkk = gram(Vk);
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(m6, m6);
   kernel::gemmNT(m6, m6, kept, Lm.data(), P, Cm.data(), P, X.data(), m6);  // row-major Σ ℓ cᵀ
-  Sk.triangularView<Eigen::StrictlyLower>() = Sk.transpose();
-  Vkk.triangularView<Eigen::StrictlyLower>() = Vkk.transpose();
   // X holds Σ ℓ cᵀ row-major, i.e. Σ c ℓᵀ in Eigen's column-major view: the symmetric sum
   // X + Xᵀ is the same either way.
   Eigen::MatrixXd Ke = Sk - X - X.transpose();

@@ -76,6 +76,7 @@ struct DenseModel {
   GaugeParameterization gauge;
   Eigen::MatrixXd basis;    ///< 6n × K, block diagonal
   Eigen::MatrixXd Sr;       ///< K × K reduced information
+  Eigen::MatrixXd L_r;      ///< K × K, lower Cholesky factor of Sr (Sr = L Lᵀ)
   Eigen::MatrixXd Sigma_r;  ///< K × K
   Eigen::MatrixXd Sigma;    ///< 6n × 6n, full tangent
 };
@@ -102,6 +103,7 @@ DenseModel buildModel(const Snapshot& s, const DbaOptions& o, bool keep_depth_te
                                ": the reduced information matrix S is not positive definite "
                                "(self-calibration)",
                            m.ne.keyframes);
+    m.L_r = llt.matrixL();
     m.Sigma_r = llt.solve(Eigen::MatrixXd::Identity(K, K));
     m.Sigma_r = 0.5 * (m.Sigma_r + m.Sigma_r.transpose());
   }
@@ -1213,6 +1215,10 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
 }
 
 namespace {
+/// The depths' term: the largest share ρ of a direction's information the depths' noise may take
+/// before the second-order expansion is held (selfCalibratedCovariance).
+constexpr double kMaxDepthShare = 0.9;
+
 /// Each edge's white-noise variance factor: the inflation of vce and nuisance (nuisance: s_e, the
 /// field is a term of its own), without the correlation factor of score and autocorr; sandwich
 /// keeps the snapshot's weights, its white scale is vce's.
@@ -1267,28 +1273,23 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     // The information at the true depths, H = E[S(d̂)] − M, inverted; the score's variance
     // S + M + N around it (a sandwich). In S's whitened coordinates L⁻¹ M L⁻ᵀ = Q diag(ρ) Qᵀ
     // (ρ: the share of a direction's information the depths' noise takes) and
-    // H⁻¹ = L⁻ᵀ Q diag(1/(1 − ρ)) Qᵀ L⁻¹. The expansion is second order: beyond ρ = ½ it is not
-    // trusted and 1/(1 − ρ) is held at 2, continuously (a switch to the first-order inverse
-    // where S − M stops being positive definite made the covariance blow up just before it
-    // and drop at it).
+    // H⁻¹ = L⁻ᵀ Q diag(1/(1 − ρ)) Qᵀ L⁻¹ (L: buildModel's Cholesky factor of S). The expansion
+    // is second order: beyond ρ = kMaxDepthShare it is not trusted and 1/(1 − ρ) is held at 10,
+    // continuously (a switch to the first-order inverse where S − M stops being positive
+    // definite made the covariance blow up just before it and drop at it; a cap at ½ made the
+    // white-3× Monte Carlo over-confident, README).
     Eigen::MatrixXd Sigma1;
     {
-      const Eigen::LLT<Eigen::MatrixXd> lltS(m.Sr);
-      if (lltS.info() != Eigen::Success)
-        throw NumericalError(s.source +
-                                 ": the reduced information matrix S is not positive definite "
-                                 "(depths' noise term)",
-                             m.ne.keyframes);
-      const Eigen::MatrixXd Li =
-          lltS.matrixL().solve(Eigen::MatrixXd::Identity(m.Sr.rows(), m.Sr.cols()));  // L⁻¹
+      const Eigen::MatrixXd Li = m.L_r.triangularView<Eigen::Lower>().solve(
+          Eigen::MatrixXd::Identity(m.Sr.rows(), m.Sr.cols()));  // L⁻¹
       Eigen::MatrixXd W = Li * Mr * Li.transpose();
       W = 0.5 * (W + W.transpose()).eval();
       const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(W);
       const Eigen::VectorXd f = es.eigenvalues().unaryExpr(
-          [](double rho) { return 1.0 / (1.0 - std::clamp(rho, 0.0, 0.9)); });
+          [](double rho) { return 1.0 / (1.0 - std::clamp(rho, 0.0, kMaxDepthShare)); });
       const Eigen::MatrixXd QtLi = es.eigenvectors().transpose() * Li;
       Sigma1 = QtLi.transpose() * f.asDiagonal() * QtLi;
-      summary.depth_noise_max_rho = es.eigenvalues().maxCoeff();
+      if (es.eigenvalues().size() > 0) summary.depth_noise_max_rho = es.eigenvalues().maxCoeff();
     }
     // The method's own covariance and the snapshot and linearization the query API answers on:
     // sandwich's and nuisance's reduced one on the snapshot; else that of its inflations, which

@@ -27,7 +27,7 @@ struct SelfCalibrationSummary {
   double depth_noise_share = 0;
   /// The term's inputs: the residuals' excess kurtosis γ₂ it used (0: Gaussian tails, or not
   /// applied) and the largest share ρ of a direction's information the depths' noise takes
-  /// (beyond ½ the second-order expansion is held at ½; depth_noise.h).
+  /// (beyond 0.9 the second-order expansion holds it at 0.9; self_calibration.cpp).
   double depth_noise_kurtosis = 0;
   double depth_noise_max_rho = 0;
 };
