@@ -79,6 +79,7 @@ def Covariance(snapshot, preset="droid", **options):
     bootstrap_scale, bootstrap_replicates and bootstrap_failed to the dict;
     converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one).
     The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,
+    sensor_depth_scale and sensor_depth_rows (RGB-D: the readings' variance factor, 1 without),
     depth_noise (applied or not), depth_noise_share (what it adds to the trace of the method's own covariance, a fraction),
     depth_noise_kurtosis (the residuals' excess kurtosis the term used),
     edges: one array per --edge-csv column; nuisance adds field_sigma, field_fine_sigma (px)

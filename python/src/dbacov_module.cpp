@@ -177,6 +177,8 @@ py::dict calibrationDict(const SelfCalibration& cal) {
   d["method"] = std::string(toString(cal.method));
   d["global_scale"] = cal.global_scale;
   d["passes"] = cal.passes;
+  d["sensor_depth_scale"] = cal.sensor_depth_scale;  // RGB-D readings' variance factor (1: none)
+  d["sensor_depth_rows"] = cal.sensor_depth_rows;
   if (cal.method == SelfCalibrationMethod::Nuisance ||
       cal.method == SelfCalibrationMethod::Bootstrap) {
     d["field_sigma"] = cal.nuisance_sigma;

@@ -155,6 +155,36 @@ def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
     assert not os.path.exists(tmp_path / "x.csv")
 
 
+def test_stereo_edges_and_sensor_depths_get_their_own_scales(shared_path, tmp_path):
+    # The shared snapshot with a stereo edge per source and sensor depths (conftest): the CLI and
+    # Python agree on the covariances, the edge CSV's stereo rows and the readings' factor.
+    from conftest import rgbd_arrays, stereo_arrays
+    from test_dbacov import npz_arrays
+    a = rgbd_arrays(stereo_arrays(npz_arrays(shared_path)))
+    a["t0"] = np.asarray(int(a["ii"].min()) + 1)  # DROID's gauge: its oldest pose held
+    path = tmp_path / "stereo_rgbd.npz"
+    np.savez(path, **a)
+    csv = tmp_path / "edges.csv"
+    cov = dbacov.Covariance(str(path), gauge="droid", self_calibrate=True)
+    assert_agree(cov, cli_marginals(path, tmp_path, "--gauge", "droid", "--self-calibrate",
+                                    "--edge-csv", str(csv)))
+    cal = cov.self_calibration
+    assert cal["sensor_depth_rows"] > 1000
+    assert cal["sensor_depth_scale"] > 0 and cal["sensor_depth_scale"] != 1.0
+    edges = cal["edges"]
+    stereo = np.flatnonzero(np.asarray(edges["i"]) == np.asarray(edges["j"]))
+    assert len(stereo) == len(np.unique(a["ii"][a["ii"] != a["jj"]]))
+    _, rows = edge_csv(csv)
+    for e in stereo:  # a residual, a redundancy and a scale of their own
+        assert int(rows[e]["pixels"]) > 0 and float(rows[e]["redundancy"]) > 0
+        assert float(rows[e]["inflation"]) == pytest.approx(edges["inflation"][e], rel=1e-5)
+    assert f"sensor depths' factor    {cal['sensor_depth_scale']:.6g}" in cov.summary(full=True)
+    r = run_cli("-i", str(path), "--csv", str(tmp_path / "k.csv"), "--gauge", "droid",
+                "--self-calibrate")
+    assert r.returncode == 0, r.stderr
+    assert "sensor depths' variance factor median" in r.stderr + r.stdout
+
+
 def test_bootstrap_method_reports_its_scales(sim_dir):
     # A small simulated snapshot (the shared one takes ~4 s per 32 replicates): the bootstrap's
     # scales are in the dict next to the nuisance field it scales.

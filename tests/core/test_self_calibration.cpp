@@ -41,7 +41,9 @@ sim::ScenarioConfig smallScenario(std::uint64_t seed, int H, int W) {
 /// Dense reference of the per-edge quantities: whitened rows over (poses, depths), hat matrix,
 /// depth-reduced pose columns Ṽ = (I − H_d) A_p.
 struct EdgeReference {
+  // Per cluster: the edges e < E, then each keyframe k's sensor readings (RGB-D) as E + k.
   std::vector<double> redundancy, kappa, f;
+  std::vector<int> rows;
   std::vector<Eigen::VectorXd> g;  // full tangent, 6n
   Eigen::MatrixXd Sigma;           // 6n × 6n
   // For the nuisance method: whitened rows' depth-reduced pose columns V (rows × 6n), the
@@ -52,8 +54,8 @@ struct EdgeReference {
   int field_coords = 0;
   Eigen::VectorXd tfield;
   std::vector<double> q;
-  std::vector<int> source;    // per edge
-  std::vector<int> row_edge;  // per row
+  std::vector<int> source;    // per cluster
+  std::vector<int> row_edge;  // per row, its cluster
 };
 
 EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o, int nodes = 0) {
@@ -72,7 +74,9 @@ EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o, int nod
   int D = 0;
   for (int e = 0; e < s.numEdges(); ++e) {
     const int i = static_cast<int>(s.ii[e]), j = static_cast<int>(s.jj[e]);
-    const Eigen::Isometry3d T_ji = s.T_cw(j) * s.T_wc(i);
+    // A stereo edge (i == j): the fixed rig, no pose Jacobian (a factor on the depth alone).
+    const bool stereo = i == j;
+    const Eigen::Isometry3d T_ji = stereo ? s.stereoRig() : s.T_cw(j) * s.T_wc(i);
     for (int p = 0; p < HW; ++p) {
       const double d = s.disps[static_cast<std::size_t>(i) * HW + p];
       if (!(d > 0)) continue;
@@ -88,11 +92,32 @@ EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o, int nod
         int& dv = depth_of[static_cast<std::size_t>(i) * HW + p];
         if (dv < 0) dv = D++;
         const double sl = std::sqrt(lam);
-        rows.push_back({e, slot[i], slot[j], dv, c, p % s.W, p / s.W, sl * f.J_i.row(c),
-                        sl * f.J_j.row(c), sl * f.J_d[c], sl * f.r[c], sl});
+        const Eigen::Matrix<double, 1, 6> zero = Eigen::Matrix<double, 1, 6>::Zero();
+        rows.push_back({e, slot[i], slot[j], dv, c, p % s.W, p / s.W,
+                        stereo ? zero : Eigen::Matrix<double, 1, 6>(sl * f.J_i.row(c)),
+                        stereo ? zero : Eigen::Matrix<double, 1, 6>(sl * f.J_j.row(c)),
+                        sl * f.J_d[c], sl * f.r[c], sl});
       }
     }
   }
+  // RGB-D: a source keyframe k's readings, r = d_sens − d, ∂r/∂d = −1, information α; their
+  // cluster is E + k (EdgeReference).
+  const int E = s.numEdges();
+  if (s.disps_sens && o.sensor_depth_weight > 0)
+    for (int k = 0; k < s.numKeyframes(); ++k) {
+      if (std::find(s.ii.begin(), s.ii.end(), k) == s.ii.end()) continue;  // sources only
+      for (int p = 0; p < HW; ++p) {
+        const std::size_t at = static_cast<std::size_t>(k) * HW + p;
+        const double d = s.disps[at], ds = (*s.disps_sens)[at];
+        if (!(ds > 0) || !(d > 0)) continue;
+        int& dv = depth_of[at];
+        if (dv < 0) dv = D++;
+        const double sl = std::sqrt(o.sensor_depth_weight);
+        rows.push_back({E + k, slot[k], slot[k], dv, 0, p % s.W, p / s.W,
+                        Eigen::Matrix<double, 1, 6>::Zero(), Eigen::Matrix<double, 1, 6>::Zero(),
+                        -sl, sl * (ds - d), sl});
+      }
+    }
   const int M = static_cast<int>(rows.size()), P6 = 6 * n;
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(M, P6 + D);
   Eigen::VectorXd r(M);
@@ -115,13 +140,13 @@ EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o, int nod
   const Eigen::VectorXd h = Ad.colwise().squaredNorm().transpose();
   const Eigen::MatrixXd V = Ap - Ad * (h.cwiseInverse().asDiagonal() * (Ad.transpose() * Ap));
   EdgeReference ref;
-  const int E = s.numEdges();
   // The field's columns: [1, u, v] and, with nodes G >= 2, the G × G tents per channel, written
   // here from the tents' definition (every basis function at every pixel).
   const int mb = 3 + (nodes >= 2 ? nodes * nodes : 0), mn = 2 * mb;
   ref.field_coords = mn;
   ref.Phi = Eigen::MatrixXd::Zero(M, mn * E);
   for (int k = 0; k < M; ++k) {
+    if (rows[k].edge >= E || rows[k].si == rows[k].sj) continue;  // no field on depth-only rows
     const double u = (rows[k].x - 0.5 * (s.W - 1)) / (0.5 * s.W),
                  v = (rows[k].y - 0.5 * (s.H - 1)) / (0.5 * s.H);
     const int col = mn * rows[k].edge + mb * rows[k].channel;
@@ -142,8 +167,8 @@ EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o, int nod
   ref.tfield = ref.Phi.transpose() * (r - APC * (AP.transpose() * r));  // Φᵀ P⊥ r
   ref.V = V;
   for (const Row& row : rows) ref.row_edge.push_back(row.edge);
-  for (int e = 0; e < E; ++e) {
-    ref.source.push_back(static_cast<int>(s.ii[e]));
+  for (int e = 0; e < E + s.numKeyframes(); ++e) {
+    ref.source.push_back(e < E ? static_cast<int>(s.ii[e]) : e - E);
     double q = 0;
     for (int k = 0; k < M; ++k)
       if (rows[k].edge == e) q += r[k] * r[k];
@@ -152,10 +177,11 @@ EdgeReference denseEdgeReference(const Snapshot& s, const DbaOptions& o, int nod
   const Eigen::MatrixXd Pp = P.topLeftCorner(P6, Kp);
   const Eigen::MatrixXd Spp = Pp.transpose() * V.transpose() * V * Pp;
   ref.Sigma = Pp * Spp.inverse() * Pp.transpose();
-  for (int e = 0; e < s.numEdges(); ++e) {
+  for (int e = 0; e < E + s.numKeyframes(); ++e) {
     std::vector<int> idx;
     for (int k = 0; k < M; ++k)
       if (rows[k].edge == e) idx.push_back(k);
+    ref.rows.push_back(static_cast<int>(idx.size()));
     const int m = static_cast<int>(idx.size());
     Eigen::MatrixXd Ve(m, P6), Ree(m, m);
     Eigen::VectorXd re(m);
@@ -201,8 +227,8 @@ void expectRedundancyScoreAndSandwichMatchDenseReference() {
   c.score_prior_dof = 0;  // κ_e itself
   c.score_metric = ScoreMetric::Covariance;
   const SelfCalibration score = selfCalibrate(s, o, c);
-  ASSERT_EQ(vce.edges.size(), ref.redundancy.size());
-  for (std::size_t e = 0; e < ref.redundancy.size(); ++e) {
+  ASSERT_EQ(vce.edges.size(), static_cast<std::size_t>(s.numEdges()));
+  for (std::size_t e = 0; e < vce.edges.size(); ++e) {
     EXPECT_NEAR(vce.edges[e].redundancy, ref.redundancy[e], 1e-6 * (1 + ref.redundancy[e]))
         << "edge " << e;
     EXPECT_NEAR(vce.edges[e].inflation, vce.edges[e].chi2 / ref.redundancy[e], 1e-6);
@@ -214,7 +240,7 @@ void expectRedundancyScoreAndSandwichMatchDenseReference() {
   ASSERT_TRUE(sw.reduced_covariance);
   Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(ref.Sigma.rows(), ref.Sigma.cols());
   for (std::size_t e = 0; e < ref.g.size(); ++e)
-    meat += ref.g[e] * ref.g[e].transpose() / std::clamp(ref.f[e], 0.05, 1.0);
+    if (ref.rows[e] > 0) meat += ref.g[e] * ref.g[e].transpose() / std::clamp(ref.f[e], 0.05, 1.0);
   const Eigen::MatrixXd expected = ref.Sigma * meat * ref.Sigma;
   const DbaCovariance cov = selfCalibratedCovariance(s, o, {}, sw);
   const std::vector<int> kf = s.graphKeyframes();
@@ -416,6 +442,102 @@ TEST(SelfCalibration, NuisanceMatchesDenseReference) {
   });
 }
 
+/// The factors on the depths alone, against the dense reference with their rows: a stereo edge
+/// per source whose targets err 3x the claimed σ and RGB-D readings whose α is claimed 4x too
+/// high, on the tiny snapshot solved to the optimum with them. Each stereo edge's redundancy and
+/// scale, the readings' pooled scale, the sandwich with the stereo edges and each source's
+/// readings as clusters, and nuisance's covariance Σ Vᵀ (diag(s_row) + Φ D Φᵀ) V Σ with every
+/// row at its factor's scale. Without their own components the stereo edges and readings kept
+/// factor 1: every comparison below fails.
+void expectDepthOnlyFactorsMatchDenseReference() {
+  sim::SyntheticSnapshotConfig cfg = testing::gridConfig(8, 6, 6, 8);
+  cfg.covisibility.edge_radius = 5;
+  Snapshot s = sim::generateSyntheticSnapshot(cfg).snapshot;
+  DbaOptions o = testing::gaugeOptions(GaugeOptions::Type::TwoPose, 0.0, 0.0);
+  sim::StereoConfig stereo;
+  stereo.weight_scale = o.weight_scale / 9.0;  // σ 3x what the confidences claim
+  sim::addStereoEdges(s, stereo);
+  sim::RgbdConfig rgbd;
+  rgbd.alpha = 100.0;
+  sim::addSensorDepth(s, rgbd);
+  o.sensor_depth_weight = 4.0 * rgbd.alpha;  // claims 4x the readings' information
+  s.validate();
+  solveDba(s, o);
+  const EdgeReference ref = denseEdgeReference(s, o);
+  const int E = s.numEdges();
+  SelfCalibrationOptions c;
+  c.depth_noise = false;  // the methods' own covariance
+  c.method = SelfCalibrationMethod::Vce;
+  const SelfCalibration vce = selfCalibrate(s, o, c);
+  int stereo_edges = 0;
+  for (int e = 0; e < E; ++e) {
+    if (s.ii[e] != s.jj[e]) continue;
+    ++stereo_edges;
+    ASSERT_GT(ref.rows[e], 0) << "stereo edge " << e;
+    EXPECT_EQ(vce.edges[e].rows, static_cast<std::size_t>(ref.rows[e])) << e;
+    EXPECT_NEAR(vce.edges[e].redundancy, ref.redundancy[e], 1e-6 * (1 + ref.redundancy[e])) << e;
+    EXPECT_NEAR(vce.edges[e].inflation, ref.q[e] / ref.redundancy[e], 1e-6 * vce.edges[e].inflation)
+        << e;
+  }
+  ASSERT_GT(stereo_edges, 2);
+  double q = 0, red = 0;
+  int rows = 0;
+  for (int k = 0; k < s.numKeyframes(); ++k) {
+    q += ref.q[E + k];
+    red += ref.redundancy[E + k];
+    rows += ref.rows[E + k];
+  }
+  ASSERT_GT(rows, 50);
+  EXPECT_EQ(vce.sensor_depth_rows, static_cast<std::size_t>(rows));
+  EXPECT_NEAR(vce.sensor_depth_redundancy, red, 1e-6 * red);
+  EXPECT_NEAR(vce.sensor_depth_scale, q / red, 1e-6 * q / red);
+  EXPECT_GT(vce.sensor_depth_scale, 2.0) << "the readings' 4x is not seen";
+  const std::vector<int> kf = s.graphKeyframes();
+  const auto expectMarginals = [&](const DbaCovariance& cov, const Eigen::MatrixXd& expected,
+                                   const char* what) {
+    for (std::size_t a = 0; a < kf.size(); ++a) {
+      const Matrix6d got = cov.marginal(kf[a]);
+      const Eigen::MatrixXd want = expected.block<6, 6>(6 * a, 6 * a);
+      EXPECT_LE((got - want).norm(), 1e-6 * (1e-12 + want.norm())) << what << " keyframe " << kf[a];
+    }
+  };
+  // Sandwich: the edges and each source's readings as clusters.
+  c.method = SelfCalibrationMethod::Sandwich;
+  const SelfCalibration sw = selfCalibrate(s, o, c);
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(ref.Sigma.rows(), ref.Sigma.cols());
+  for (std::size_t e = 0; e < ref.g.size(); ++e)
+    if (ref.rows[e] > 0) meat += ref.g[e] * ref.g[e].transpose() / std::clamp(ref.f[e], 0.05, 1.0);
+  expectMarginals(selfCalibratedCovariance(s, o, {}, sw), ref.Sigma * meat * ref.Sigma, "sandwich");
+  // Nuisance (affine field): every row at its factor's white scale, the fields at the method's
+  // σ_a; its stereo scales and the readings' are vce's single-pass ones.
+  c.method = SelfCalibrationMethod::Nuisance;
+  c.nuisance_nodes = 0;
+  const SelfCalibration nu = selfCalibrate(s, o, c);
+  const EdgeReference fref = denseEdgeReference(s, o, 0);
+  EXPECT_NEAR(nu.sensor_depth_scale, vce.sensor_depth_scale, 1e-9 * vce.sensor_depth_scale);
+  meat.setZero();
+  const int mn = fref.field_coords;
+  for (int e = 0; e < E; ++e) {
+    if (s.ii[e] == s.jj[e]) {
+      EXPECT_NEAR(nu.edges[e].inflation, vce.edges[e].inflation, 1e-9 * vce.edges[e].inflation);
+      continue;
+    }
+    const Eigen::MatrixXd VPhi = fref.V.transpose() * fref.Phi.middleCols(mn * e, mn);
+    meat += nu.nuisance_sigma * nu.nuisance_sigma * VPhi * VPhi.transpose();
+  }
+  for (int k = 0; k < fref.V.rows(); ++k) {
+    const int cl = fref.row_edge[k];
+    const double scale = cl < E ? nu.edges[cl].inflation : nu.sensor_depth_scale;
+    meat += scale * fref.V.row(k).transpose() * fref.V.row(k);
+  }
+  expectMarginals(selfCalibratedCovariance(s, o, {}, nu), fref.Sigma * meat * fref.Sigma,
+                  "nuisance");
+}
+
+TEST(SelfCalibration, DepthOnlyFactorsMatchDenseReference) {
+  testing::forEachKernelIsa([](kernel::Isa) { expectDepthOnlyFactorsMatchDenseReference(); });
+}
+
 /// The median of the per-edge inflations (edges with pixels).
 double medianInflation(const SelfCalibration& c) {
   std::vector<double> v;
@@ -530,11 +652,17 @@ TEST(SelfCalibration, StereoAndSensorDepthsAreFactorsOnTheDepths) {
   EXPECT_LT(st.nuisance_sigma, 0.02) << "mono " << mono.nuisance_sigma;
   EXPECT_NEAR(medianInflation(st), medianInflation(mono), 0.1 * medianInflation(mono));
   EXPECT_NEAR(st.global_scale, 1.0, 0.05);
+  // Each stereo edge has a variance component of its own; its noise is as claimed here.
+  int stereo_edges = 0;
   for (const EdgeCalibration& e : st.edges)
     if (e.i == e.j) {
-      EXPECT_EQ(e.rows, 0u) << "stereo edge " << e.edge;
-      EXPECT_EQ(e.inflation, 1.0) << "stereo edge " << e.edge;
+      ++stereo_edges;
+      EXPECT_GT(e.rows, 100u) << "stereo edge " << e.edge;
+      EXPECT_NEAR(e.inflation, 1.0, 0.15) << "stereo edge " << e.edge;
     }
+  EXPECT_GT(stereo_edges, 0);
+  EXPECT_EQ(st.sensor_depth_rows, 0u);
+  EXPECT_EQ(st.sensor_depth_scale, 1.0);
   EXPECT_NO_THROW(selfCalibratedCovariance(stereo, o, {}, st));
 
   Snapshot rgbd = sim.snapshot;
@@ -546,6 +674,8 @@ TEST(SelfCalibration, StereoAndSensorDepthsAreFactorsOnTheDepths) {
   const SelfCalibration sd = selfCalibrate(rgbd, orgbd, c);
   EXPECT_NEAR(sd.global_scale, 1.0, 0.05);
   EXPECT_NEAR(medianInflation(sd), 1.0, 0.1);
+  EXPECT_GT(sd.sensor_depth_rows, 1000u);
+  EXPECT_NEAR(sd.sensor_depth_scale, 1.0, 0.1);
   // Depths pinned by exact readings on every pixel take nothing from the flow rows: their
   // leverages add up to the poses' share (< 6 per keyframe), not one more per depth.
   Snapshot pinned = sim.snapshot;

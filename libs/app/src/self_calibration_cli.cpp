@@ -178,6 +178,7 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   for (const EdgeCalibration& e : cal.edges)
     if (e.rows > 0) inflations_.push_back(e.inflation);
   scales_.push_back(cal.global_scale);
+  if (cal.sensor_depth_rows > 0) sensor_scales_.push_back(cal.sensor_depth_scale);
   if (cal.method == SelfCalibrationMethod::Nuisance ||
       cal.method == SelfCalibrationMethod::Bootstrap) {
     field_sigmas_.push_back(cal.nuisance_sigma);
@@ -228,6 +229,8 @@ std::string SelfCalibrationRun::summaryLine() const {
     os << ", edge inflation median " << number(median(inflations_)) << " (" << number(*lo) << " to "
        << number(*hi) << "), global residual scale " << number(median(scales_));
   }
+  if (!sensor_scales_.empty())
+    os << ", sensor depths' variance factor median " << number(median(sensor_scales_));
   if (!field_sigmas_.empty()) {
     os << ", field sigma median " << number(median(field_sigmas_)) << " px (affine)";
     if (options_.nuisance_nodes >= 2)

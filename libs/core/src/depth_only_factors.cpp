@@ -25,6 +25,8 @@ DepthOnlyTerms depthOnlyTerms(const Snapshot& s, const DbaOptions& o, int src,
       t.h[p] += o.sensor_depth_weight;
       t.g[p] += -o.sensor_depth_weight * r;
       t.chi2 += o.sensor_depth_weight * r * r;
+      t.sum_r2 += r * r;
+      ++t.rows;
       ++t.factors_used;
     }
   }
@@ -50,6 +52,11 @@ DepthOnlyTerms depthOnlyTerms(const Snapshot& s, const DbaOptions& o, int src,
         t.h[p] += w0 * f.J_d[0] * f.J_d[0] + w1 * f.J_d[1] * f.J_d[1];
         t.g[p] += w0 * f.J_d[0] * f.r[0] + w1 * f.J_d[1] * f.r[1];
         t.chi2 += w0 * f.r[0] * f.r[0] + w1 * f.r[1] * f.r[1];
+        for (int c = 0; c < 2; ++c)
+          if ((c == 0 ? wx[p] : wy[p]) > 0) {
+            t.sum_r2 += f.r[c] * f.r[c];
+            ++t.rows;
+          }
         ++t.factors_used;
       }
     }

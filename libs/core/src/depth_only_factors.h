@@ -27,8 +27,10 @@ namespace dbacov::detail {
 struct DepthOnlyTerms {
   std::vector<double> h, g;  ///< per pixel of the source keyframe (H·W), zero where none
   std::size_t factors_used = 0, factors_filtered = 0;
+  std::size_t rows = 0;  ///< used residual axes (a stereo factor has up to two, a reading one)
   double chi2 = 0.0;
-  bool any = false;  ///< some pixel has δh > 0
+  double sum_r2 = 0.0;  ///< Σ r² over the used axes (unweighted)
+  bool any = false;     ///< some pixel has δh > 0
 };
 
 /// The depth-only terms of source keyframe `src`: its sensor factor (with snapshot.disps_sens and

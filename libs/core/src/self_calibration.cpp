@@ -70,6 +70,13 @@ double clampInflation(double x, double lo, double hi) {
   return std::clamp(std::isfinite(x) ? x : hi, lo, hi);
 }
 
+/// The options with the sensor readings' information α divided by their variance factor.
+DbaOptions sensorCalibratedOptions(const DbaOptions& o, double sensor_scale) {
+  DbaOptions out = o;
+  if (sensor_scale != 1.0) out.sensor_depth_weight /= sensor_scale;
+  return out;
+}
+
 /// The linearization, gauge and dense pose covariance of one state and weighting.
 struct DenseModel {
   DbaNormalEquations ne;
@@ -131,6 +138,10 @@ struct EdgeAccum {
   double tr_SI = 0, tr_SD = 0, tr_SISI = 0, gSg = 0;
   double gIg = 0, expected_info = 0;  ///< g_eᵀ I_e⁺ g_e and its expectation
   double tau = 1;
+  /// A factor on the depths alone (a stereo edge, a source's sensor readings): its rows have no
+  /// pose Jacobian, v = −(J_d / h) B_p; of the nuisance fields below only source, w and
+  /// pixel_of are set.
+  bool depth_only = false;
   Eigen::VectorXd g;  ///< 6n, depth-reduced score
   // Nuisance only, on the edge's source slots (slots[a] = the a-th 6-block's keyframe slot):
   std::vector<int> slots;
@@ -203,10 +214,13 @@ double autocorrelationSum(const std::vector<double> z[2], const std::vector<char
 }
 
 /// One pass over every edge at the snapshot's state and weights, with the model's Σ.
+/// The residual pass: one EdgeAccum per edge and, in `sensor` (when given), one per source
+/// keyframe in the pass's source order for its sensor readings (RGB-D; rows = 0 without).
 std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const DenseModel& m,
                                 bool autocorr, int L, bool info_metric,
                                 const NuisanceBasis* nuisance = nullptr,
-                                std::vector<SourceTerms>* source_terms = nullptr) {
+                                std::vector<SourceTerms>* source_terms = nullptr,
+                                std::vector<EdgeAccum>* sensor = nullptr) {
   const int E = s.numEdges(), n = static_cast<int>(m.ne.keyframes.size());
   const int HW = static_cast<int>(s.pixelsPerFrame());
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
@@ -216,6 +230,13 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
   for (int k : m.ne.keyframes)
     if (std::find(s.ii.begin(), s.ii.end(), k) != s.ii.end()) sources.push_back(k);
   if (source_terms) source_terms->assign(sources.size(), SourceTerms{});
+  if (sensor) {
+    sensor->assign(sources.size(), EdgeAccum{});
+    for (EdgeAccum& a : *sensor) a.g = Eigen::VectorXd::Zero(6 * n);
+  }
+  // The stereo edges' terms without the sensor's (each factor on the depths alone on its own).
+  DbaOptions o_stereo = o;
+  o_stereo.sensor_depth_weight = 0;
   // Nuisance: every grid pixel's active basis coordinates, monomials and spline cell, and every
   // cell's map T from the monomials to the active values (NuisanceBasis; the sums run on the
   // monomials, so the values themselves are not kept).
@@ -254,8 +275,9 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     for (int e = 0; e < E; ++e) {
       if (s.ii[e] != src) continue;
       // A stereo edge (k, k) is a factor on the depths alone (fixed rig transform; conventions
-      // §2, depth_only_factors.h): it has no pose rows here and keeps its weights, and its depth
-      // information enters every pixel's h and gradient below, as in the linearization.
+      // §2, depth_only_factors.h): it has no pose rows; its depth information enters every
+      // pixel's h and gradient below, as in the linearization, and its residuals give it a
+      // variance component of its own (depthOnlyAccum).
       if (s.jj[e] == src) {
         stereo.push_back(e);
         continue;
@@ -325,13 +347,17 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
       B.topRows<6>().noalias() += Em[q].leftCols<6>().transpose() * Bj.middleRows<6>(6 * q);
     }
     // The factors on the depths alone (stereo edges, RGB-D sensor depths): information and
-    // gradient of the pixel's depth, as linearizeDba adds them before eliminating it.
-    const detail::DepthOnlyTerms depth_only = detail::depthOnlyTerms(s, o, src, stereo);
-    if (depth_only.any)
-      for (int p = 0; p < HW; ++p) {
-        h[p] += depth_only.h[p];
-        gd[p] += depth_only.g[p];
-      }
+    // gradient of the pixel's depth, as linearizeDba adds them before eliminating it; each
+    // stereo edge and the sensor readings apart, for their variance components.
+    std::vector<detail::DepthOnlyTerms> depth_only;
+    for (int e : stereo) depth_only.push_back(detail::depthOnlyTerms(s, o_stereo, src, {e}));
+    depth_only.push_back(detail::depthOnlyTerms(s, o, src, {}));  // the sensor's (last)
+    for (const detail::DepthOnlyTerms& terms : depth_only)
+      if (terms.any)
+        for (int p = 0; p < HW; ++p) {
+          h[p] += terms.h[p];
+          gd[p] += terms.g[p];
+        }
 
     // Every depth-reduced row is v_k = u_k − c_k B_p (u_k = √λ [J_i | J_j] on two slots, c_k =
     // √λ J_d / h_p, B_p the pixel's depth column shared by all its rows), so the products with
@@ -345,6 +371,47 @@ std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const De
     RowMatrix B_rows = nuisance ? RowMatrix(B) : RowMatrix();
     Eigen::VectorXd bSb(HW);
     for (int p = 0; p < HW; ++p) bSb[p] = B.col(p).dot(SB.col(p));
+
+    // A factor on the depths alone, in the notation above with u = 0: its rows at pixel p (depth
+    // information h_t = Σ λ J_d², gradient Σ λ J_d r) have v = −(√λ J_d / h_p) B_p, so
+    // lev = h_t (1/h_p + B_pᵀ Σ B_p / h_p²), g = −Σ_p (Σ λ J_d r / h_p) B_p, I = Σ_p w_p B_p B_pᵀ
+    // with w_p = h_t / h_p², and D's c_p = −(h_t / h_p) B_p.
+    const auto depthOnlyAccum = [&](const detail::DepthOnlyTerms& dt, EdgeAccum& a) {
+      a.depth_only = true;
+      a.rows = dt.rows;
+      a.pixels = dt.factors_used;
+      a.q = dt.chi2;
+      a.sum_r2 = dt.sum_r2;
+      a.source = static_cast<int>(si);
+      if (!dt.any) return;
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(6 * T);
+      std::vector<double> w;
+      for (int p = 0; p < HW; ++p) {
+        const double hp = h[p];
+        if (!(dt.h[p] > 0) || !(hp > o.depth_info_eps)) continue;
+        a.lev += dt.h[p] / hp * (1.0 + bSb[p] / hp);
+        g.noalias() -= (dt.g[p] / hp) * B.col(p);
+        a.pixel_of.push_back(p);
+        w.push_back(dt.h[p] / (hp * hp));
+        a.tr_SI += w.back() * bSb[p];
+        a.tr_SD += (dt.h[p] / hp) * (dt.h[p] / hp) * bSb[p] / hp;
+      }
+      a.w = Eigen::Map<const Eigen::VectorXd>(w.data(), static_cast<Eigen::Index>(w.size()));
+      if (!nuisance || info_metric) {  // I itself: the score's expectation, the sandwich's f
+        Eigen::MatrixXd Bw(6 * T, a.pixel_of.size());
+        for (std::size_t k = 0; k < a.pixel_of.size(); ++k)
+          Bw.col(static_cast<Eigen::Index>(k)) = std::sqrt(w[k]) * B.col(a.pixel_of[k]);
+        Eigen::MatrixXd I = Eigen::MatrixXd::Zero(6 * T, 6 * T);
+        I.selfadjointView<Eigen::Lower>().rankUpdate(Bw);
+        I = I.selfadjointView<Eigen::Lower>();
+        const Eigen::MatrixXd SI = Sig * I;
+        a.tr_SISI = SI.cwiseProduct(SI.transpose()).sum();
+        a.gSg = g.dot(Sig * g);
+      }
+      for (int b = 0; b < T; ++b) a.g.segment<6>(6 * touched[b]) = g.segment<6>(6 * b);
+    };
+    for (std::size_t k = 0; k < stereo.size(); ++k) depthOnlyAccum(depth_only[k], acc[stereo[k]]);
+    if (sensor) depthOnlyAccum(depth_only.back(), (*sensor)[si]);
 
     std::vector<double> z[2];
     std::vector<char> mask[2];
@@ -750,8 +817,9 @@ double expectedScore(const EdgeAccum& a) {
 /// Σ (S + Σ_e (s_e − 1) I_e + Σ_g σ_g² C_e,g C_e,gᵀ) Σ in the gauge's reduced coordinates.
 /// The s_e are clamped to [lo, hi] (the options' inflation bounds, as every method's inflations).
 void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
-                        const std::vector<SourceTerms>& sources, int groups, double lo, double hi,
-                        SelfCalibration* out) {
+                        const std::vector<SourceTerms>& sources,
+                        const std::vector<EdgeAccum>& sensor, double sensor_scale, int groups,
+                        double lo, double hi, SelfCalibration* out) {
   const int E = static_cast<int>(acc.size());
   const auto clamp = [&](double x) { return clampInflation(x, lo, hi); };
   /// The edge's field terms in the eigenbasis B_k = U diag(d) Uᵀ of one group k: while σ_k² is
@@ -783,6 +851,13 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
     const int e = static_cast<int>(ei);
     const EdgeAccum& a = acc[e];
     const double rho = out->edges[e].redundancy;
+    if (a.depth_only) {  // a stereo edge: white noise only, its vce scale
+      if (a.rows > 0 && rho > 0.5) {
+        used[e] = 1;
+        se[e] = clamp(a.q / rho);
+      }
+      return;
+    }
     if (a.rows == 0 || !(rho > 0.5) || a.Mn.size() == 0) return;
     Eigen::VectorXd sg(6 * a.slots.size());
     for (std::size_t b = 0; b < a.slots.size(); ++b)
@@ -1030,8 +1105,9 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
   // Σ_e (s_e − 1) I_e, per source from the factors of its edges' I_e (EdgeAccum): with
   // f_e = s_e − 1 and ω = Σ_e f_e w_e (per pixel), Σ_e f_e I_e = Σ_e f_e (P_e Auu_e P_eᵀ −
   // P_e X_e − X_eᵀ P_eᵀ) + B diag(ω) Bᵀ: one 6T × HW × 6T product per source (its lower
-  // triangle). The sources in parallel, added to X in source order (the same sums for any
-  // thread count).
+  // triangle). The factors on the depths alone (stereo edges, the sensor readings with the
+  // scale shared by all sources) add only to ω. The sources in parallel, added to X in source
+  // order (the same sums for any thread count).
   std::vector<Eigen::MatrixXd> per_source(sources.size());
   parallelFor(sources.size(), [&](std::size_t si) {
     const SourceTerms& st = sources[si];
@@ -1046,6 +1122,11 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       const double f = se[e] - 1.0;
       if (f == 0) continue;
       any = true;
+      if (a.depth_only) {
+        for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
+          omega[a.pixel_of[pix]] += f * a.w[static_cast<Eigen::Index>(pix)];
+        continue;
+      }
       for (int i = 0; i < 12; ++i) {
         for (int j = 0; j < 12; ++j) Xs(a.idx[i], a.idx[j]) += f * a.Auu(i, j);
         Xs.row(a.idx[i]) -= f * a.cross.row(i);
@@ -1053,6 +1134,12 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       }
       for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
         omega[a.pixel_of[pix]] += f * a.w[static_cast<Eigen::Index>(pix)];
+    }
+    if (si < sensor.size() && sensor[si].rows > 0 && sensor_scale != 1.0) {
+      const EdgeAccum& a = sensor[si];
+      for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
+        omega[a.pixel_of[pix]] += (sensor_scale - 1.0) * a.w[static_cast<Eigen::Index>(pix)];
+      any = true;
     }
     if (!any) return;
     const RowMatrix Bw = st.B * omega.asDiagonal();
@@ -1110,14 +1197,29 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
     const bool last = it + 1 == passes;
     const Snapshot inflated = it == 0 ? Snapshot() : inflateWeights(s, infl);
     const Snapshot& cur = it == 0 ? s : inflated;
-    DenseModel model = buildModel(cur, o);
+    const DbaOptions oi = it == 0 ? o : sensorCalibratedOptions(o, out.sensor_depth_scale);
+    DenseModel model = buildModel(cur, oi);
     const bool nuisance = c.method == SelfCalibrationMethod::Nuisance;
     std::vector<SourceTerms> sources;
+    std::vector<EdgeAccum> sensor;
     const std::vector<EdgeAccum> acc =
-        edgePass(cur, o, model, last && c.method == SelfCalibrationMethod::Autocorr, c.autocorr_lag,
-                 c.score_metric == ScoreMetric::Information, nuisance ? &basis : nullptr,
-                 nuisance ? &sources : nullptr);
+        edgePass(cur, oi, model, last && c.method == SelfCalibrationMethod::Autocorr,
+                 c.autocorr_lag, c.score_metric == ScoreMetric::Information,
+                 nuisance ? &basis : nullptr, nuisance ? &sources : nullptr, &sensor);
     ++out.passes;
+    // The sensor readings' variance component, one for all sources (DROID's α is one number):
+    // Σ q / Σ redundancy, iterated like vce's.
+    {
+      double q = 0, red = 0, rows = 0;
+      for (const EdgeAccum& a : sensor) {
+        q += a.q;
+        red += a.rows - a.lev;
+        rows += a.rows;
+      }
+      out.sensor_depth_rows = static_cast<std::size_t>(rows);
+      out.sensor_depth_redundancy = red;
+      if (red > 0.5) out.sensor_depth_scale = clamp(out.sensor_depth_scale * q / red);
+    }
     if (it == 0) {
       out.optimum = optimumDistance(model);
       double q = 0, red = 0;
@@ -1188,7 +1290,12 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
       const int K = model.gauge.dim();
       int clusters = 0;
       Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(K, K);
-      for (const EdgeAccum& a : acc) {
+      // Clusters: the edges (stereo ones too) and each source's sensor readings.
+      std::vector<const EdgeAccum*> all;
+      for (const EdgeAccum& a : acc) all.push_back(&a);
+      for (const EdgeAccum& a : sensor) all.push_back(&a);
+      for (const EdgeAccum* ap : all) {
+        const EdgeAccum& a = *ap;
         if (a.rows == 0) continue;
         ++clusters;
         const double f = a.tr_SI > 0 ? std::clamp(expectedScore(a) / a.tr_SI, 0.05, 1.0) : 1.0;
@@ -1196,7 +1303,9 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
         meat.noalias() += gr * gr.transpose() / f;
       }
       if (clusters <= K)
-        throw NumericalError(s.source + ": the sandwich self-calibration needs more edges (" +
+        throw NumericalError(s.source +
+                                 ": the sandwich self-calibration needs more clusters (edges, "
+                                 "and sources with sensor readings: " +
                                  std::to_string(clusters) + ") than free pose DoF (" +
                                  std::to_string(K) + ")",
                              {});
@@ -1205,8 +1314,8 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
       out.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
     }
     if (c.method == SelfCalibrationMethod::Nuisance) {
-      nuisanceCovariance(model, acc, sources, basis.groups(), c.min_inflation, c.max_inflation,
-                         &out);
+      nuisanceCovariance(model, acc, sources, sensor, out.sensor_depth_scale, basis.groups(),
+                         c.min_inflation, c.max_inflation, &out);
       out.linearization = std::make_shared<const DbaNormalEquations>(std::move(model.ne));
       out.nuisance_params = 2 * basis.perChannel();
     }
@@ -1253,14 +1362,17 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
           std::to_string(s.jj[e]) + "), the self-calibration's (" + std::to_string(cal.edges[e].i) +
           ", " + std::to_string(cal.edges[e].j) + "): it is of another snapshot");
   SelfCalibrationSummary summary{toString(cal.method), cal.inflations()};
+  summary.sensor_depth_scale = cal.sensor_depth_scale;
+  // The sensor readings' information at their fitted scale, wherever the model is rebuilt.
+  const DbaOptions oc = sensorCalibratedOptions(o, cal.sensor_depth_scale);
   if (cal.depth_noise && cal.method != SelfCalibrationMethod::Bootstrap) {
     // The depths' second-order term (depth_noise.h) of the white noise each edge was found to
     // have, added to the method's covariance in the gauge's reduced coordinates. The bootstrap
     // re-solves: its scale measures the nonlinearity itself.
     const std::vector<double> white_factors = whiteFactors(cal), infl = cal.inflations();
     Snapshot si = inflateWeights(s, white_factors);
-    DenseModel m = buildModel(si, o, true);
-    const DepthNoiseTerms dn = depthNoiseTerms(si, o, m.ne);
+    DenseModel m = buildModel(si, oc, true);
+    const DepthNoiseTerms dn = depthNoiseTerms(si, oc, m.ne);
     const Eigen::MatrixXd Mr = m.basis.transpose() * dn.M * m.basis;
     Eigen::MatrixXd Nr = m.basis.transpose() * dn.N * m.basis;
     // The variance's fourth-cumulant share (heavy tails; depth_noise.h): in M + N only, H keeps
@@ -1307,7 +1419,7 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
       on = &si;
     } else {
       inflated = inflateWeights(s, infl);
-      DenseModel mi = buildModel(inflated, o);
+      DenseModel mi = buildModel(inflated, oc);
       V = std::move(mi.Sigma_r);
       so.linearization = std::make_shared<const DbaNormalEquations>(std::move(mi.ne));
       on = &inflated;
@@ -1318,7 +1430,7 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     V += term;
     V = 0.5 * (V + V.transpose()).eval();
     so.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));
-    DbaCovariance cov(*on, o, so);
+    DbaCovariance cov(*on, on == &s ? o : oc, so);  // the options its linearization was at
     cov.setSelfCalibrationSummary(std::move(summary));
     return cov;
   }
@@ -1330,7 +1442,7 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     cov.setSelfCalibrationSummary(std::move(summary));
     return cov;
   }
-  DbaCovariance cov(inflateWeights(s, cal.inflations()), o, solver);
+  DbaCovariance cov(inflateWeights(s, cal.inflations()), oc, solver);
   cov.setSelfCalibrationSummary(std::move(summary));
   return cov;
 }

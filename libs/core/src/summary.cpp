@@ -57,6 +57,9 @@ std::string CovarianceSummary::full() const {
      << (self_calibration.method.empty() ? std::string("none") : self_calibration.method) << '\n';
   if (!self_calibration.method.empty())
     os << "edge variance factors    " << factorRange(self_calibration.edge_factor) << '\n';
+  if (self_calibration.sensor_depth_scale != 1.0)
+    os << "sensor depths' factor    " << self_calibration.sensor_depth_scale
+       << " (variance; their information alpha / factor)\n";
   if (self_calibration.depth_noise_share > 0)
     os << "depths' 2nd-order term   +" << 100 * self_calibration.depth_noise_share
        << " % on the calibrated trace (residual excess kurtosis "

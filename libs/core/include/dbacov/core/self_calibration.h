@@ -72,6 +72,10 @@
 //             solve's nonlinearity at low SNR adds). The covariance is D^½ V D^½, D = k_a per
 //             keyframe. Needs the solver, so it runs through runSelfCalibration
 //             (dbacov/sim/bootstrap.h); selfCalibrate refuses it.
+// Factors on the depths alone (DROID's stereo edges k == k, RGB-D readings) have no pose rows:
+// v = −(√λ J_d / h_k) b_k. Each stereo edge gets its own vce scale and the readings one shared
+// scale (SelfCalibration::sensor_depth_scale), in every method: inflation / α divided (vce,
+// score, autocorr), (s − 1) I in nuisance's meat, clusters of the sandwich's.
 // Default: nuisance with nuisance_nodes = 4 (developed on one set of simulated runs, confirmed on
 // runs it was not tuned on; README "Self-calibration from the residuals").
 // All but sandwich and nuisance produce per-edge inflations; selfCalibratedSnapshot() then divides
@@ -195,6 +199,12 @@ struct SelfCalibration {
   double global_scale = 1;             ///< Σ q / Σ redundancy at the snapshot's weights
   int passes = 0;                      ///< linearizations done
   OptimumDistance optimum;             ///< of the snapshot's state (first pass, its weights)
+  /// RGB-D: the sensor readings' variance factor (their information becomes α / factor), one
+  /// for all of the snapshot's readings: Σ α r² / (rows − Σ lev), iterated with vce / score /
+  /// autocorr; their rows and redundancy at the last pass. 1 without readings.
+  double sensor_depth_scale = 1;
+  std::size_t sensor_depth_rows = 0;
+  double sensor_depth_redundancy = 0;
   /// Nuisance only: σ_a (px) of the per-edge field's coefficients, and their number per edge.
   double nuisance_sigma = 0;
   double nuisance_fine_sigma = 0;  ///< σ of the G × G tents' node values (px), with nodes >= 2

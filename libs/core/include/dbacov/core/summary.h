@@ -30,6 +30,7 @@ struct SelfCalibrationSummary {
   /// (beyond 0.9 the second-order expansion holds it at 0.9; self_calibration.cpp).
   double depth_noise_kurtosis = 0;
   double depth_noise_max_rho = 0;
+  double sensor_depth_scale = 1;  ///< RGB-D: the sensor readings' variance factor (1: none)
 };
 
 struct CovarianceSummary {
