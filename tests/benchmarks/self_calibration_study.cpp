@@ -32,7 +32,8 @@ namespace {
 struct Source {
   std::string name, description;
   sim::ScenarioConfig config;
-  double claimed_scale_factor = 1.0;  ///< covariances computed with weight_scale × this
+  double claimed_scale_factor = 1.0;   ///< covariances computed with weight_scale × this
+  double claimed_sensor_factor = 1.0;  ///< RGB-D: and with the sensor depths' α × this
 };
 
 sim::ScenarioConfig issueScene() {
@@ -98,6 +99,36 @@ std::vector<Source> allSources() {
     Source s{"lowsnr", "default scene at weight scale 4 (white)", sim::ScenarioConfig()};
     v.push_back(s);
   }
+  // DROID's other modes, one held pose (metric scale): the factors on the depths alone with the
+  // wrong claimed noise too (stereo edges: the flow's noise; RGB-D: α claimed 4x too high).
+  {
+    Source s{"stereo", "stereo, white as claimed", issueScene()};
+    s.config.sensor.mode = sim::SensorMode::Stereo;
+    s.config.gauge.type = GaugeOptions::Type::Droid;
+    v.push_back(s);
+  }
+  {
+    Source s{"stereo-white2x", "stereo, white 2x the claimed sigma (flow and stereo)",
+             issueScene()};
+    s.config.sensor.mode = sim::SensorMode::Stereo;
+    s.config.gauge.type = GaugeOptions::Type::Droid;
+    s.config.noise.amplitude = 2.0;
+    v.push_back(s);
+  }
+  {
+    Source s{"rgbd", "RGB-D, white and sensor depths as claimed", issueScene()};
+    s.config.sensor.mode = sim::SensorMode::Rgbd;
+    s.config.gauge.type = GaugeOptions::Type::Droid;
+    v.push_back(s);
+  }
+  {
+    Source s{"rgbd-alpha4x", "RGB-D, white as claimed, sensor depths' alpha claimed 4x too high",
+             issueScene()};
+    s.config.sensor.mode = sim::SensorMode::Rgbd;
+    s.config.gauge.type = GaugeOptions::Type::Droid;
+    s.claimed_sensor_factor = 4.0;
+    v.push_back(s);
+  }
   return v;
 }
 
@@ -149,6 +180,7 @@ int main(int argc, char** argv) {
     const sim::Scenario sc(src.config);
     DbaOptions o = src.config.engineOptions();
     o.weight_scale *= src.claimed_scale_factor;
+    o.sensor_depth_weight *= src.claimed_sensor_factor;
     std::map<std::string, Row> rows;
     sim::EvaluationSamples calib;
     const auto run_all = [&](int run, bool evaluation) {
