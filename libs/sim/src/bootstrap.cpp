@@ -21,9 +21,10 @@ namespace dbacov {
 
 namespace {
 
-/// One replicate: the snapshot with targets π(state) + noise of the fitted model (edges with
-/// ii == jj, the stereo depth factors, keep theirs), solved from the state and calibrated like
-/// the snapshot (nuisance). Returns [joint NEES, NEES of each slot (0 for a fixed one)] of the
+/// One replicate: the snapshot with targets π(state) + noise of the fitted model (a stereo edge
+/// ii == jj: through the rig, white at its own scale, no field) and sensor readings (RGB-D)
+/// d(state) + white noise at theirs, solved from the state and calibrated like the snapshot
+/// (nuisance). Returns [joint NEES, NEES of each slot (0 for a fixed one)] of the
 /// state against the replicate's estimate and covariance, or an empty vector when the solve did
 /// not converge or the replicate's covariance could not be computed.
 Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolverOptions& solver,
@@ -48,9 +49,9 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
   std::vector<Row> rows;
   for (int e = 0; e < s.numEdges(); ++e) {
     const int i = static_cast<int>(s.ii[e]), j = static_cast<int>(s.jj[e]);
-    if (i == j) continue;
-    for (int k = 0; k < 2 * mb; ++k) field[k] = sd[basis.groupOf(k)] * n01(rng);
-    const Eigen::Isometry3d T_ji = s.T_cw(j) * s.T_wc(i);
+    const bool stereo = i == j;  // the fixed rig; white noise only (nuisance fits no field)
+    for (int k = 0; k < 2 * mb; ++k) field[k] = stereo ? 0.0 : sd[basis.groupOf(k)] * n01(rng);
+    const Eigen::Isometry3d T_ji = stereo ? s.stereoRig() : s.T_cw(j) * s.T_wc(i);
     const Eigen::Matrix3d R = T_ji.linear();
     const Eigen::Vector3d t = T_ji.translation();
     // The edge's used rows: target index, predicted flow and information.
@@ -86,6 +87,33 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
                       : white / std::sqrt(w.lam) * n01(rng);
       for (int u = 0; u < na; ++u) n += value[u] * field[w.channel * mb + index[u]];
       b.target[w.at] = static_cast<float>(w.pred + n);
+    }
+  }
+  // The sensor readings (the sources' pixels with one): the state's inverse depth plus white
+  // noise of variance sensor_depth_scale / α (wild: the reading's own residual with a random
+  // sign, the readings' energy scaled to that). A draw at or below 0 drops the reading, as a
+  // sensor without one (the simulator's rule).
+  if (s.disps_sens && o.sensor_depth_weight > 0 && cal.sensor_depth_rows > 0) {
+    std::vector<float>& ds = *b.disps_sens;
+    const double alpha = o.sensor_depth_weight, white = std::sqrt(cal.sensor_depth_scale / alpha);
+    double wild_scale = 0;
+    if (wild) {
+      double q = 0;
+      std::size_t m = 0;
+      for (std::size_t at = 0; at < ds.size(); ++at)
+        if (ds[at] > 0 && s.disps[at] > 0) {
+          const double r = static_cast<double>(ds[at]) - s.disps[at];
+          q += alpha * r * r;
+          ++m;
+        }
+      if (q > 0) wild_scale = std::sqrt(cal.sensor_depth_scale * m / q);
+    }
+    for (std::size_t at = 0; at < ds.size(); ++at) {
+      if (!(ds[at] > 0) || !(s.disps[at] > 0)) continue;
+      const double r = static_cast<double>(ds[at]) - s.disps[at];
+      const double n = wild ? wild_scale * r * (sign(rng) ? 1.0 : -1.0) : white * n01(rng);
+      const double draw = s.disps[at] + n;
+      ds[at] = draw > 0 ? static_cast<float>(draw) : 0.0f;
     }
   }
   if (!solveDba(b, o, solver).converged()) return {};
