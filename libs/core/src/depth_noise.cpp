@@ -95,7 +95,10 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   // that Σ c cᵀ/h² and Σ v vᵀ/(2h²) are two symmetric products over the depths in the kernel's
   // dot products, and Γ is applied once per source, not per pixel (rank-1 updates and Γ per
   // pixel were most of the term's cost).
-  const Eigen::Index P = static_cast<Eigen::Index>(dt.pixel.size());
+  // The columns' stride: a multiple of 8 doubles plus 8, never a multiple of 4 KiB (with P =
+  // 3072 depths it was 24 KiB, so the 6E entries one depth writes across a column-major matrix
+  // all fell in one L1 set and evicted each other at every depth).
+  const Eigen::Index P = (static_cast<Eigen::Index>(dt.pixel.size()) + 7) / 8 * 8 + 8;
   Eigen::MatrixXd Cm(P, 6 * E), Vm(P, 6 * E);
   // The fourth-cumulant terms (depth_noise.h), per unit γ₂: Σ_f w_f β_f β_fᵀ with w_f =
   // J_d,f²/h² and β_f = L_f − α_f c (L_f = Λ_f J'_f on its edge's 6 coordinates, α_f =
