@@ -266,15 +266,33 @@ TEST(SelfCalibration, RedundancyScoreAndSandwichMatchDenseReference) {
 /// edge's targets and re-solved: an affine one of 0.1 px per coefficient and, for the spline
 /// basis, a finer one (a random 0.03 px bump per channel, u·v for the one-cell 2 × 2 spline)
 /// that only the tents can describe.
-void expectNuisanceMatchesDenseReference(int nodes) {
-  SCOPED_TRACE("nodes " + std::to_string(nodes));
-  Snapshot s = solvedTiny(6);
-  const DbaOptions o = testing::gaugeOptions(GaugeOptions::Type::TwoPose, 0.0, 0.0);
+/// With depth_only, the tiny snapshot also has a stereo edge per source (σ 3x the claimed) and
+/// RGB-D readings (α claimed 4x too high): factors without a field whose rows the hat matrix,
+/// the field scores' projection and the white scales all include.
+void expectNuisanceMatchesDenseReference(int nodes, bool depth_only = false) {
+  SCOPED_TRACE("nodes " + std::to_string(nodes) + (depth_only ? ", stereo + RGB-D" : ""));
+  DbaOptions o = testing::gaugeOptions(GaugeOptions::Type::TwoPose, 0.0, 0.0);
+  Snapshot s;
+  if (depth_only) {
+    sim::SyntheticSnapshotConfig cfg = testing::gridConfig(6, 6, 6, 8);
+    cfg.covisibility.edge_radius = 5;
+    s = sim::generateSyntheticSnapshot(cfg).snapshot;
+    sim::StereoConfig stereo;
+    stereo.weight_scale = o.weight_scale / 9.0;
+    sim::addStereoEdges(s, stereo);
+    sim::RgbdConfig rgbd;
+    rgbd.alpha = 100.0;
+    sim::addSensorDepth(s, rgbd);
+    o.sensor_depth_weight = 4.0 * rgbd.alpha;
+    s.validate();
+  } else {
+    s = solvedTiny(6);
+  }
   std::mt19937_64 rng(99);
   std::normal_distribution<double> nd(0.0, 0.1);
   const int HW = static_cast<int>(s.pixelsPerFrame());
   for (int e = 0; e < s.numEdges(); ++e)
-    for (int c = 0; c < 2; ++c) {
+    for (int c = 0; c < 2 && s.ii[e] != s.jj[e]; ++c) {  // no field on a stereo edge
       const double a0 = nd(rng), a1 = nd(rng), a2 = nd(rng),
                    bump = nodes >= 2 ? 0.3 * nd(rng) : 0.0;
       float* t = &s.target[(static_cast<std::size_t>(e) * 2 + c) * HW];
@@ -386,6 +404,15 @@ void expectNuisanceMatchesDenseReference(int nodes) {
                 1e-4 * theta[1] + 1e-9);
   }
   for (int e = 0; e < E; ++e) EXPECT_NEAR(cal.edges[e].inflation, se[e], 1e-4 * se[e]) << e;
+  if (depth_only) {  // the readings' pooled scale
+    double q = 0, red = 0;
+    for (int k = 0; k < s.numKeyframes(); ++k) {
+      q += ref.q[E + k];
+      red += ref.redundancy[E + k];
+    }
+    ASSERT_GT(red, 1.0);
+    EXPECT_NEAR(cal.sensor_depth_scale, q / red, 1e-6 * q / red);
+  }
 
   // The covariance, with the method's own estimates.
   const double var[2] = {cal.nuisance_sigma * cal.nuisance_sigma,
@@ -395,8 +422,11 @@ void expectNuisanceMatchesDenseReference(int nodes) {
     const Eigen::MatrixXd VPhi = ref.V.transpose() * ref.Phi.middleCols(mn * e, mn);
     for (int k = 0; k < mn; ++k) meat += var[groupOf(k)] * VPhi.col(k) * VPhi.col(k).transpose();
   }
-  for (int k = 0; k < ref.V.rows(); ++k)
-    meat += cal.edges[ref.row_edge[k]].inflation * ref.V.row(k).transpose() * ref.V.row(k);
+  for (int k = 0; k < ref.V.rows(); ++k) {
+    const int cl = ref.row_edge[k];  // an edge, or E + k for keyframe k's readings
+    const double scale = cl < E ? cal.edges[cl].inflation : cal.sensor_depth_scale;
+    meat += scale * ref.V.row(k).transpose() * ref.V.row(k);
+  }
   const Eigen::MatrixXd expected = ref.Sigma * meat * ref.Sigma;
   const DbaCovariance cov = selfCalibratedCovariance(s, o, {}, cal);
   EXPECT_EQ(cov.summary().self_calibration.method, "nuisance");
@@ -436,9 +466,10 @@ TEST(SelfCalibration, NuisanceCellTransformReproducesTheBasis) {
 
 TEST(SelfCalibration, NuisanceMatchesDenseReference) {
   testing::forEachKernelIsa([](kernel::Isa) {
-    expectNuisanceMatchesDenseReference(0);  // affine
-    expectNuisanceMatchesDenseReference(2);  // affine + 2 × 2 tents: one spline cell
-    expectNuisanceMatchesDenseReference(3);  // affine + 3 × 3 tents: two variance components
+    expectNuisanceMatchesDenseReference(0);        // affine
+    expectNuisanceMatchesDenseReference(2);        // affine + 2 × 2 tents: one spline cell
+    expectNuisanceMatchesDenseReference(3);        // affine + 3 × 3 tents: two variance components
+    expectNuisanceMatchesDenseReference(0, true);  // with stereo edges and RGB-D readings
   });
 }
 

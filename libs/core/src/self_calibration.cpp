@@ -841,9 +841,11 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
   std::vector<char> used(E, 0);
   const int G = groups;  // variance components (every edge's group indices are below it)
   // The field scores of the residual projected off the poses too, Φᵀ P⊥ r = t_e − C_eᵀ Σ g
-  // (g the depth-reduced gradient; zero at the optimum, where this changes nothing).
+  // (g the depth-reduced gradient of every row, the stereo edges' and the readings' included;
+  // zero at the optimum, where this changes nothing).
   Eigen::VectorXd grad = Eigen::VectorXd::Zero(m.Sigma.rows());
   for (const EdgeAccum& a : acc) grad += a.g;
+  for (const EdgeAccum& a : sensor) grad += a.g;
   const Eigen::VectorXd Sg = m.Sigma * grad;
   // Per edge in parallel (each writes only its own entries), kept in edge order.
   std::vector<std::unique_ptr<FieldEdge>> prepared(E);
@@ -1114,6 +1116,11 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
     if (st.B.size() == 0) return;
     const int T6 = static_cast<int>(st.B.rows()), HW = static_cast<int>(st.B.cols());
     Eigen::VectorXd omega = Eigen::VectorXd::Zero(HW);
+    // f Σ_p w_p B_p B_pᵀ of a factor's depth share: f w on its pixels' ω.
+    const auto addOmega = [&](const EdgeAccum& a, double f) {
+      for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
+        omega[a.pixel_of[pix]] += f * a.w[static_cast<Eigen::Index>(pix)];
+    };
     Eigen::MatrixXd Xs = Eigen::MatrixXd::Zero(T6, T6);
     bool any = false;
     for (int e = 0; e < E; ++e) {
@@ -1122,23 +1129,16 @@ void nuisanceCovariance(const DenseModel& m, const std::vector<EdgeAccum>& acc,
       const double f = se[e] - 1.0;
       if (f == 0) continue;
       any = true;
-      if (a.depth_only) {
-        for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
-          omega[a.pixel_of[pix]] += f * a.w[static_cast<Eigen::Index>(pix)];
-        continue;
-      }
+      addOmega(a, f);
+      if (a.depth_only) continue;
       for (int i = 0; i < 12; ++i) {
         for (int j = 0; j < 12; ++j) Xs(a.idx[i], a.idx[j]) += f * a.Auu(i, j);
         Xs.row(a.idx[i]) -= f * a.cross.row(i);
         Xs.col(a.idx[i]) -= f * a.cross.row(i).transpose();
       }
-      for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
-        omega[a.pixel_of[pix]] += f * a.w[static_cast<Eigen::Index>(pix)];
     }
     if (si < sensor.size() && sensor[si].rows > 0 && sensor_scale != 1.0) {
-      const EdgeAccum& a = sensor[si];
-      for (std::size_t pix = 0; pix < a.pixel_of.size(); ++pix)
-        omega[a.pixel_of[pix]] += (sensor_scale - 1.0) * a.w[static_cast<Eigen::Index>(pix)];
+      addOmega(sensor[si], sensor_scale - 1.0);
       any = true;
     }
     if (!any) return;

@@ -1,6 +1,7 @@
 // The parametric bootstrap of the nuisance self-calibration (bootstrap.h).
 #include "dbacov/sim/bootstrap.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -89,27 +90,31 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
       b.target[w.at] = static_cast<float>(w.pred + n);
     }
   }
-  // The sensor readings (the sources' pixels with one): the state's inverse depth plus white
-  // noise of variance sensor_depth_scale / α (wild: the reading's own residual with a random
-  // sign, the readings' energy scaled to that). A draw at or below 0 drops the reading, as a
-  // sensor without one (the simulator's rule).
+  // The sensor readings of the source keyframes (the only ones the DBA uses): the state's
+  // inverse depth plus white noise of variance sensor_depth_scale / α (wild: the reading's own
+  // residual with a random sign, the readings' energy scaled to that). A draw at or below 0
+  // drops the reading, as a sensor without one (the simulator's rule).
   if (s.disps_sens && o.sensor_depth_weight > 0 && cal.sensor_depth_rows > 0) {
     std::vector<float>& ds = *b.disps_sens;
+    std::vector<std::size_t> at_reading;  // indices into disps of the sources' readings
+    for (int k = 0; k < s.numKeyframes(); ++k) {
+      if (std::find(s.ii.begin(), s.ii.end(), k) == s.ii.end()) continue;
+      for (int p = 0; p < HW; ++p) {
+        const std::size_t at = static_cast<std::size_t>(k) * HW + p;
+        if (ds[at] > 0 && s.disps[at] > 0) at_reading.push_back(at);
+      }
+    }
     const double alpha = o.sensor_depth_weight, white = std::sqrt(cal.sensor_depth_scale / alpha);
     double wild_scale = 0;
     if (wild) {
       double q = 0;
-      std::size_t m = 0;
-      for (std::size_t at = 0; at < ds.size(); ++at)
-        if (ds[at] > 0 && s.disps[at] > 0) {
-          const double r = static_cast<double>(ds[at]) - s.disps[at];
-          q += alpha * r * r;
-          ++m;
-        }
-      if (q > 0) wild_scale = std::sqrt(cal.sensor_depth_scale * m / q);
+      for (std::size_t at : at_reading) {
+        const double r = static_cast<double>(ds[at]) - s.disps[at];
+        q += alpha * r * r;
+      }
+      if (q > 0) wild_scale = std::sqrt(cal.sensor_depth_scale * at_reading.size() / q);
     }
-    for (std::size_t at = 0; at < ds.size(); ++at) {
-      if (!(ds[at] > 0) || !(s.disps[at] > 0)) continue;
+    for (std::size_t at : at_reading) {
       const double r = static_cast<double>(ds[at]) - s.disps[at];
       const double n = wild ? wild_scale * r * (sign(rng) ? 1.0 : -1.0) : white * n01(rng);
       const double draw = s.disps[at] + n;

@@ -196,9 +196,11 @@ struct OptimumDistance {
 struct SelfCalibration {
   SelfCalibrationMethod method = SelfCalibrationMethod::Nuisance;
   std::vector<EdgeCalibration> edges;  ///< one per snapshot edge, in edge order
-  double global_scale = 1;             ///< Σ q / Σ redundancy at the snapshot's weights
-  int passes = 0;                      ///< linearizations done
-  OptimumDistance optimum;             ///< of the snapshot's state (first pass, its weights)
+  /// Σ q / Σ redundancy at the snapshot's weights over the edges (stereo ones too; not the
+  /// sensor readings)
+  double global_scale = 1;
+  int passes = 0;           ///< linearizations done
+  OptimumDistance optimum;  ///< of the snapshot's state (first pass, its weights)
   /// RGB-D: the sensor readings' variance factor (their information becomes α / factor), one
   /// for all of the snapshot's readings: Σ α r² / (rows − Σ lev), iterated with vce / score /
   /// autocorr; their rows and redundancy at the last pass. 1 without readings.
