@@ -213,9 +213,9 @@ double autocorrelationSum(const std::vector<double> z[2], const std::vector<char
   return tau;
 }
 
-/// One pass over every edge at the snapshot's state and weights, with the model's Σ.
-/// The residual pass: one EdgeAccum per edge and, in `sensor` (when given), one per source
-/// keyframe in the pass's source order for its sensor readings (RGB-D; rows = 0 without).
+/// One pass over every edge at the snapshot's state and weights, with the model's Σ: one
+/// EdgeAccum per edge and, in `sensor` (when given), one per source keyframe in the pass's source
+/// order for its sensor readings (RGB-D; rows = 0 without).
 std::vector<EdgeAccum> edgePass(const Snapshot& s, const DbaOptions& o, const DenseModel& m,
                                 bool autocorr, int L, bool info_metric,
                                 const NuisanceBasis* nuisance = nullptr,
