@@ -48,6 +48,14 @@ sim::ScenarioConfig issueScene() {
   return c;
 }
 
+/// The issue's scene in one of DROID's other modes, one held pose (metric scale).
+sim::ScenarioConfig droidScene(sim::SensorMode mode) {
+  sim::ScenarioConfig c = issueScene();
+  c.sensor.mode = mode;
+  c.gauge.type = GaugeOptions::Type::Droid;
+  return c;
+}
+
 std::vector<Source> allSources() {
   std::vector<Source> v;
   {
@@ -102,30 +110,23 @@ std::vector<Source> allSources() {
   // DROID's other modes, one held pose (metric scale): the factors on the depths alone with the
   // wrong claimed noise too (stereo edges: the flow's noise; RGB-D: α claimed 4x too high).
   {
-    Source s{"stereo", "stereo, white as claimed", issueScene()};
-    s.config.sensor.mode = sim::SensorMode::Stereo;
-    s.config.gauge.type = GaugeOptions::Type::Droid;
+    Source s{"stereo", "stereo, white as claimed", droidScene(sim::SensorMode::Stereo)};
     v.push_back(s);
   }
   {
     Source s{"stereo-white2x", "stereo, white 2x the claimed sigma (flow and stereo)",
-             issueScene()};
-    s.config.sensor.mode = sim::SensorMode::Stereo;
-    s.config.gauge.type = GaugeOptions::Type::Droid;
+             droidScene(sim::SensorMode::Stereo)};
     s.config.noise.amplitude = 2.0;
     v.push_back(s);
   }
   {
-    Source s{"rgbd", "RGB-D, white and sensor depths as claimed", issueScene()};
-    s.config.sensor.mode = sim::SensorMode::Rgbd;
-    s.config.gauge.type = GaugeOptions::Type::Droid;
+    Source s{"rgbd", "RGB-D, white and sensor depths as claimed",
+             droidScene(sim::SensorMode::Rgbd)};
     v.push_back(s);
   }
   {
     Source s{"rgbd-alpha4x", "RGB-D, white as claimed, sensor depths' alpha claimed 4x too high",
-             issueScene()};
-    s.config.sensor.mode = sim::SensorMode::Rgbd;
-    s.config.gauge.type = GaugeOptions::Type::Droid;
+             droidScene(sim::SensorMode::Rgbd)};
     s.claimed_sensor_factor = 4.0;
     v.push_back(s);
   }

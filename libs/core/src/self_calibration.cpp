@@ -803,6 +803,21 @@ OptimumDistance optimumDistance(const DenseModel& m) {
   return d;
 }
 
+/// Σ q, Σ (rows − lev) and Σ rows over accumulators: a pooled vce scale's numerator and
+/// denominator.
+struct Pooled {
+  double q = 0, redundancy = 0, rows = 0;
+};
+Pooled pooled(const std::vector<EdgeAccum>& accs) {
+  Pooled p;
+  for (const EdgeAccum& a : accs) {
+    p.q += a.q;
+    p.redundancy += a.rows - a.lev;
+    p.rows += a.rows;
+  }
+  return p;
+}
+
 double expectedScore(const EdgeAccum& a) {
   return a.tr_SI - a.tr_SD - a.tr_SISI;
 }
@@ -1209,25 +1224,15 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
     ++out.passes;
     // The sensor readings' variance component, one for all sources (DROID's α is one number):
     // Σ q / Σ redundancy, iterated like vce's.
-    {
-      double q = 0, red = 0, rows = 0;
-      for (const EdgeAccum& a : sensor) {
-        q += a.q;
-        red += a.rows - a.lev;
-        rows += a.rows;
-      }
-      out.sensor_depth_rows = static_cast<std::size_t>(rows);
-      out.sensor_depth_redundancy = red;
-      if (red > 0.5) out.sensor_depth_scale = clamp(out.sensor_depth_scale * q / red);
-    }
+    const Pooled readings = pooled(sensor);
+    out.sensor_depth_rows = static_cast<std::size_t>(readings.rows);
+    out.sensor_depth_redundancy = readings.redundancy;
+    if (readings.redundancy > 0.5)
+      out.sensor_depth_scale = clamp(out.sensor_depth_scale * readings.q / readings.redundancy);
     if (it == 0) {
       out.optimum = optimumDistance(model);
-      double q = 0, red = 0;
-      for (const EdgeAccum& a : acc) {
-        q += a.q;
-        red += a.rows - a.lev;
-      }
-      out.global_scale = red > 0 ? q / red : 1.0;
+      const Pooled edges = pooled(acc);
+      out.global_scale = edges.redundancy > 0 ? edges.q / edges.redundancy : 1.0;
     }
     // Per edge: the scale (vce) and the score ratio κ / scale beyond it, with its effective
     // number of degrees of freedom ν = tr(ΣI)² / tr((ΣI)²); the pooled ratio over all edges.
