@@ -28,6 +28,7 @@
 #include "dbacov/core/threads.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/sim/bootstrap.h"
+#include "dbacov/sim/calibrated_solve.h"
 #include "dbacov/sim/dba_solver.h"
 
 namespace py = pybind11;
@@ -123,6 +124,7 @@ struct PyCovariance {
   bool depth_sigma = true;
   std::optional<SelfCalibration> calibration;  ///< self_calibrate=True
   std::optional<DbaSolverSummary> solve;       ///< converge=True
+  std::optional<CalibratedSolve> reweighted;   ///< converge=True with self_calibrate=True
 };
 
 /// "<source> (snapshot N)": how dba-covariance names a snapshot in its error lines.
@@ -428,9 +430,17 @@ PYBIND11_MODULE(_dbacov, m) {
              // As dba-covariance does per snapshot (SelfCalibrationRun::covariance): --converge
              // solves the snapshot's DBA first (on a copy here: the caller's snapshot is kept),
              // --self-calibrate then calibrates on that state.
+             // With self_calibrate=True the solve is at the calibrated weights of the factors
+             // on the depths alone (calibrated_solve.h), as dba-covariance's --converge.
              if (sc.converge) {
                auto solved = std::make_shared<Snapshot>(*snap);
-               c->solve = solveDba(*solved, c->options);
+               if (sc.enabled) {
+                 c->reweighted = solveDbaAtCalibratedWeights(*solved, c->options);
+                 c->solve = c->reweighted->solver;
+                 c->options = c->reweighted->options;
+               } else {
+                 c->solve = solveDba(*solved, c->options);
+               }
                snap = std::move(solved);
              }
              c->snapshot = snap;
@@ -467,6 +477,16 @@ PYBIND11_MODULE(_dbacov, m) {
             d["depth_noise_kurtosis"] = c.cov->summary().self_calibration.depth_noise_kurtosis;
             return std::move(d);
           })
+      .def_property_readonly("reweighting",
+                             [](const PyCovariance& c) -> py::object {
+                               if (!c.reweighted) return py::none();
+                               py::dict d;
+                               d["solves"] = c.reweighted->solves;
+                               d["settled"] = c.reweighted->settled;
+                               d["sensor_depth_factor"] = c.reweighted->sensor_depth_factor;
+                               d["edge_factors"] = c.reweighted->edge_factors;
+                               return std::move(d);
+                             })
       .def_property_readonly("converged",
                              [](const PyCovariance& c) -> py::object {
                                if (!c.solve) return py::none();

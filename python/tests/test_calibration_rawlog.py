@@ -305,3 +305,37 @@ print(before, (mrpt(), dbacov._dbacov._mrpt_bridge_loaded()))
                        env=os.environ)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split("\n")[0] == "(False, False) (True, True)"
+
+
+def test_converge_re_weights_mis_claimed_sensor_depths_as_the_cli(tmp_path):
+    # A simulated RGB-D snapshot whose readings' alpha is claimed 4x too high: without
+    # --converge the run warns that the state is biased; with it the DBA is re-solved at the
+    # calibrated alpha, in Python as in the CLI (same marginals, same factor).
+    if not os.path.exists(SIMUL):
+        pytest.fail(f"simul-dba not found: {SIMUL!r} (DBACOV_SIMUL)")
+    out = tmp_path / "rgbd"
+    r = subprocess.run([SIMUL, "-o", str(out), "--seed", "23", "--height",
+                        "24", "--width", "32", "--keyframes", "6", "--mode", "whole",
+                        "--weight-scale", "100", "--sensor", "rgbd", "--gauge", "droid", "-q"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    path = str(sorted(out.glob("snapshot_*.npz"))[0])
+    claimed = ["--weight-scale", "100", "--gauge", "droid", "--sensor-depth-weight", "1600"]
+    r = run_cli("-i", path, "--csv", str(tmp_path / "a.csv"), "--self-calibrate", *claimed)
+    assert r.returncode == 0, r.stderr
+    assert "--converge re-solves at the calibrated weights" in r.stderr
+    cov = dbacov.Covariance(path, weight_scale=100, gauge="droid", sensor_depth_weight=1600,
+                            self_calibrate=True, converge=True)
+    rw = cov.reweighting
+    assert rw["solves"] >= 2 and rw["settled"]
+    assert 2.5 < rw["sensor_depth_factor"] < 6.0  # the truth: 4
+    assert all(f == 1.0 for f in rw["edge_factors"])  # no stereo edge
+    assert_agree(cov, cli_marginals(path, tmp_path, "--self-calibrate", "--converge", *claimed))
+    r = run_cli("-i", path, "--csv", str(tmp_path / "b.csv"), "--self-calibrate", "--converge",
+                *claimed)
+    assert r.returncode == 0, r.stderr
+    assert "re-solved at the calibrated weights" in r.stderr
+    assert "--converge re-solves" not in r.stderr
+    # converge without self_calibrate: one solve at the claimed weights, nothing re-weighted.
+    assert dbacov.Covariance(path, weight_scale=100, gauge="droid", sensor_depth_weight=1600,
+                             converge=True).reweighting is None

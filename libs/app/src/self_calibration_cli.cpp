@@ -9,6 +9,7 @@
 
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/bootstrap.h"
+#include "dbacov/sim/calibrated_solve.h"
 #include "dbacov/sim/dba_solver.h"
 #include "engine_cli.h"
 
@@ -114,7 +115,10 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
                  "inflation, effective pixels, method");
   cli.add_flag("--converge", o.converge,
                "Solve each snapshot's DBA to the optimum of its own factors (project's solver) "
-               "before computing covariances; outputs then hold the solved poses");
+               "before computing covariances; outputs then hold the solved poses. With "
+               "--self-calibrate, stereo edges and RGB-D readings are re-weighted at their "
+               "calibrated variance ratio to the flow and the DBA re-solved until it settles "
+               "(at mis-claimed weights the solved state is biased)");
 }
 
 SelfCalibrationRun::SelfCalibrationRun(const SelfCalibrationCli& cli)
@@ -142,12 +146,29 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   std::string* warning = &text;
   const auto t0 = std::chrono::steady_clock::now();
   bool converged = false;
+  const std::string name = s.source + " (snapshot " + std::to_string(s.label()) + ")";
+  // With --self-calibrate, --converge solves at the calibrated weights of the factors on the
+  // depths alone (stereo edges, RGB-D readings): at the claimed ones the estimate is biased when
+  // they are mis-weighted against the flow (calibrated_solve.h). The covariance then belongs to
+  // those weights.
+  DbaOptions oc = o;
+  std::optional<CalibratedSolve> reweighted;
   if (cli_.converge) {
-    const DbaSolverSummary sum = solveDba(s, o);
+    DbaSolverSummary sum;
+    if (cli_.enabled) {
+      reweighted = solveDbaAtCalibratedWeights(s, o);
+      oc = reweighted->options;
+      sum = reweighted->solver;
+    } else {
+      sum = solveDba(s, o);
+    }
     converged = sum.converged();
     if (!converged && warning)
-      *warning = s.source + " (snapshot " + std::to_string(s.label()) +
-                 "): --converge: the DBA solve did not converge (" + sum.brief() + ")";
+      *warning = name + ": --converge: the DBA solve did not converge (" + sum.brief() + ")";
+    else if (reweighted && !reweighted->settled && warning)
+      *warning = name + ": --converge: the depth-only factors' variance ratios did not settle in " +
+                 std::to_string(reweighted->solves) + " solves (still " +
+                 number(reweighted->last_ratio) + "x off)";
   }
   if (!cli_.enabled) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -155,8 +176,8 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     if (!text.empty()) warnings_[s.index] = text;
     return std::make_unique<DbaCovariance>(s, o, solver);
   }
-  const SelfCalibration cal = runSelfCalibration(s, o, options_);
-  auto cov = std::make_unique<DbaCovariance>(selfCalibratedCovariance(s, o, solver, cal));
+  const SelfCalibration cal = runSelfCalibration(s, oc, options_);
+  auto cov = std::make_unique<DbaCovariance>(selfCalibratedCovariance(s, oc, solver, cal));
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const bool unreliable = cal.optimum.unreliable();
@@ -166,6 +187,24 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
                number(cal.optimum.step_sigma) + " sigma for " +
                std::to_string(cal.optimum.free_dof) +
                " free DoF): the self-calibration may be biased; consider --converge";
+  // Without --converge the state is the input's, solved at the claimed weights: a depth-only
+  // factor far off the flow's variance factor means that state is biased.
+  const double flow =
+      cal.global_scale > 0 && std::isfinite(cal.global_scale) ? cal.global_scale : 1.0;
+  std::vector<double> stereo;
+  for (const EdgeCalibration& e : cal.edges)
+    if (e.i == e.j && e.rows > 0) stereo.push_back(e.inflation / flow);
+  const double sensor_ratio = cal.sensor_depth_rows > 0 ? cal.sensor_depth_scale / flow : 1.0;
+  const double stereo_ratio = stereo.empty() ? 1.0 : median(stereo);
+  const auto off = [](double r) { return r > 1.5 || r < 1 / 1.5; };
+  if (!cli_.converge && warning && warning->empty() && (off(sensor_ratio) || off(stereo_ratio)))
+    *warning =
+        name + ": the " +
+        (off(sensor_ratio) ? "sensor depths' variance factor is " + number(sensor_ratio)
+                           : "stereo edges' median variance factor is " + number(stereo_ratio)) +
+        "x the flow's: a state solved at the claimed weights is biased (errors in "
+        "variables: over-weighted depths shrink the translation); --converge re-solves at "
+        "the calibrated weights";
   std::ostringstream rows;
   for (const EdgeCalibration& e : cal.edges)
     rows << s.label() << ',' << e.i << ',' << e.j << ',' << e.pixels << ','
@@ -179,6 +218,14 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     if (e.rows > 0) inflations_.push_back(e.inflation);
   scales_.push_back(cal.global_scale);
   if (cal.sensor_depth_rows > 0) sensor_scales_.push_back(cal.sensor_depth_scale);
+  if (reweighted && reweighted->solves > 1) {
+    ++reweighted_;
+    solves_.push_back(reweighted->solves);
+    if (s.disps_sens && o.sensor_depth_weight > 0)
+      sensor_factors_.push_back(reweighted->sensor_depth_factor);
+    for (int e = 0; e < s.numEdges(); ++e)
+      if (s.ii[e] == s.jj[e]) stereo_factors_.push_back(reweighted->edge_factors[e]);
+  }
   if (cal.method == SelfCalibrationMethod::Nuisance ||
       cal.method == SelfCalibrationMethod::Bootstrap) {
     field_sigmas_.push_back(cal.nuisance_sigma);
@@ -221,6 +268,15 @@ std::string SelfCalibrationRun::summaryLine() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::ostringstream os;
   if (cli_.converge) os << "--converge: " << converged_ << " snapshots solved to convergence";
+  if (reweighted_) {
+    os << " (" << reweighted_ << " re-solved at the calibrated weights of their depth-only "
+       << "factors, median " << number(median(solves_)) << " solves";
+    if (!sensor_factors_.empty())
+      os << ", sensor depths' alpha divided by " << number(median(sensor_factors_));
+    if (!stereo_factors_.empty())
+      os << ", stereo edges' weights divided by " << number(median(stereo_factors_));
+    os << ")";
+  }
   if (!cli_.enabled) return os.str();
   if (cli_.converge) os << "; ";
   os << "self-calibration " << toString(options_.method) << ": " << snapshots_ << " snapshots";

@@ -59,6 +59,9 @@ class SelfCalibrationRun {
   std::vector<double> sensor_scales_;  ///< RGB-D: the readings' variance factor, per snapshot
   int boot_failed_ = 0;                ///< bootstrap: unconverged replicates
   std::map<std::int64_t, std::string> warnings_;
+  /// --converge at the calibrated weights: snapshots re-solved, their solves and factors.
+  int reweighted_ = 0;
+  std::vector<double> solves_, sensor_factors_, stereo_factors_;
   int snapshots_ = 0, unreliable_ = 0, converged_ = 0;
   double seconds_ = 0;
 };
