@@ -483,6 +483,7 @@ PYBIND11_MODULE(_dbacov, m) {
                                py::dict d;
                                d["solves"] = c.reweighted->solves;
                                d["settled"] = c.reweighted->settled;
+                               d["last_ratio"] = c.reweighted->last_ratio;
                                d["sensor_depth_factor"] = c.reweighted->sensor_depth_factor;
                                d["edge_factors"] = c.reweighted->edge_factors;
                                return std::move(d);

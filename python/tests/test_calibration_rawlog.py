@@ -324,10 +324,16 @@ def test_converge_re_weights_mis_claimed_sensor_depths_as_the_cli(tmp_path):
     r = run_cli("-i", path, "--csv", str(tmp_path / "a.csv"), "--self-calibrate", *claimed)
     assert r.returncode == 0, r.stderr
     assert "--converge re-solves at the calibrated weights" in r.stderr
+    assert "over-weighted depths shrink the translation" in r.stderr
+    # alpha claimed 4x too low: the warning says under-weighted, not biased.
+    low = ["--weight-scale", "100", "--gauge", "droid", "--sensor-depth-weight", "100"]
+    r = run_cli("-i", path, "--csv", str(tmp_path / "c.csv"), "--self-calibrate", *low)
+    assert r.returncode == 0, r.stderr
+    assert "under-weighted" in r.stderr and "shrink" not in r.stderr
     cov = dbacov.Covariance(path, weight_scale=100, gauge="droid", sensor_depth_weight=1600,
                             self_calibrate=True, converge=True)
     rw = cov.reweighting
-    assert rw["solves"] >= 2 and rw["settled"]
+    assert rw["solves"] >= 2 and rw["settled"] and rw["last_ratio"] <= 1.02
     assert 2.5 < rw["sensor_depth_factor"] < 6.0  # the truth: 4
     assert all(f == 1.0 for f in rw["edge_factors"])  # no stereo edge
     assert_agree(cov, cli_marginals(path, tmp_path, "--self-calibrate", "--converge", *claimed))

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "dbacov/core/self_calibration.h"
 #include "dbacov/sim/calibrated_solve.h"
 #include "dbacov/sim/consistency.h"
 #include "dbacov/sim/monte_carlo.h"
@@ -141,6 +142,100 @@ TEST(CalibratedSolve, OverWeightedStereoEdgesBiasTheSolveAndReweightingRemovesTh
   EXPECT_NEAR(m.calibrated_scale, 1.0, 0.02);
   EXPECT_NEAR(median(m.factors), 4.0, 0.6) << "the stereo edges' factors (truth: 4)";
   EXPECT_EQ(m.unsettled, 0);
+}
+
+/// The ratios are against the flow edges' own pooled scale: with the stereo edges in the pool
+/// (SelfCalibration::global_scale) every step fell short by their share of the redundancy (stereo
+/// × 4 took 5 solves, × 1e6 did not settle in 6).
+TEST(CalibratedSolve, RatiosAreAgainstTheFlowEdgesAlone) {
+  const ScenarioConfig cfg = droidScene(SensorMode::Stereo);
+  const Scenario sc(cfg);
+  const DbaOptions o = cfg.engineOptions();
+  Snapshot s = sc.simulate(0, 11).snapshot;
+  const std::size_t plane = 2 * s.pixelsPerFrame();
+  for (int e = 0; e < s.numEdges(); ++e)
+    if (s.ii[e] == s.jj[e])
+      for (std::size_t p = 0; p < plane; ++p) s.weight[e * plane + p] *= 4.0f;
+  SelfCalibrationOptions vce;
+  vce.method = SelfCalibrationMethod::Vce;
+  vce.depth_noise = false;
+  const SelfCalibration cal = selfCalibrate(s, o, vce);
+  double q = 0, red = 0;
+  int stereo = 0;
+  for (const EdgeCalibration& e : cal.edges) {
+    if (e.i == e.j) {
+      ++stereo;
+      continue;
+    }
+    q += e.vce_scale * e.redundancy;
+    red += e.redundancy;
+  }
+  ASSERT_GT(stereo, 0);
+  const DepthOnlyRatios r = depthOnlyRatios(cal, s.numEdges());
+  EXPECT_NEAR(r.flow_scale, q / red, 1e-12 * q / red);
+  EXPECT_GT(cal.global_scale, 1.2 * r.flow_scale) << "the stereo edges are not in the global pool";
+  EXPECT_EQ(r.sensor, 1.0);
+  EXPECT_FALSE(r.readings_unmeasured);
+  EXPECT_TRUE(r.unmeasured_edges.empty());
+  for (const EdgeCalibration& e : cal.edges)
+    EXPECT_DOUBLE_EQ(r.edge[e.edge], e.i == e.j ? e.vce_scale / r.flow_scale : 1.0);
+  EXPECT_GT(r.stereoMedian(), 3.0);
+  EXPECT_LT(r.stereoMedian(), 5.5);
+}
+
+/// A component with rows but no redundancy fits its measurements exactly: its factor cannot be
+/// measured, and it is listed as such (not taken as 1).
+TEST(CalibratedSolve, ComponentsWithoutRedundancyAreUnmeasured) {
+  SelfCalibration cal;
+  cal.edges.resize(3);
+  for (int e = 0; e < 3; ++e) {
+    cal.edges[e].edge = e;
+    cal.edges[e].i = e == 2 ? 1 : 0;
+    cal.edges[e].j = 1;
+    cal.edges[e].rows = 100;
+    cal.edges[e].redundancy = e == 2 ? 0.2 : 80;
+    cal.edges[e].vce_scale = e == 2 ? 1.0 : 2.0;
+  }
+  cal.sensor_depth_rows = 50;
+  cal.sensor_depth_redundancy = 0.1;
+  const DepthOnlyRatios r = depthOnlyRatios(cal, 3);
+  EXPECT_DOUBLE_EQ(r.flow_scale, 2.0);
+  EXPECT_TRUE(r.readings_unmeasured);
+  EXPECT_EQ(r.sensor, 1.0);
+  ASSERT_EQ(r.unmeasured_edges.size(), 1u);
+  EXPECT_EQ(r.unmeasured_edges[0], 2);
+  EXPECT_EQ(r.stereoMedian(), 1.0);
+  cal.sensor_depth_redundancy = 40;
+  cal.sensor_depth_scale = 8.0;
+  EXPECT_DOUBLE_EQ(depthOnlyRatios(cal, 3).sensor, 4.0);
+}
+
+/// Readings claimed 25 000× their information: one pass saturates (it measures ≈ 5 whatever the
+/// true factor); the secant's doubling reaches the factor in a few solves. Capped at 2 solves
+/// the run says it did not settle, with the ratio left.
+TEST(CalibratedSolve, GrosslyOverWeightedReadingsSettleAndACappedRunSaysItDidNot) {
+  const ScenarioConfig cfg = droidScene(SensorMode::Rgbd);
+  const Scenario sc(cfg);
+  const DbaOptions o = cfg.engineOptions();
+  DbaOptions claimed = o;
+  claimed.sensor_depth_weight *= 25000.0;
+  Snapshot s = sc.simulate(0, 23).snapshot, capped = s;
+  const CalibratedSolve c = solveDbaAtCalibratedWeights(s, claimed);
+  EXPECT_TRUE(c.settled) << c.solves << " solves, " << c.last_ratio << "x left";
+  EXPECT_TRUE(c.solver.converged());
+  EXPECT_NEAR(c.sensor_depth_factor / 25000.0, 1.0, 0.15);
+  EXPECT_NEAR(c.options.sensor_depth_weight, claimed.sensor_depth_weight / c.sensor_depth_factor,
+              1e-9 * c.options.sensor_depth_weight);
+  EXPECT_LE(c.last_ratio, 1.02);
+
+  DbaOptions four = o;
+  four.sensor_depth_weight *= 4.0;
+  const CalibratedSolve d = solveDbaAtCalibratedWeights(capped, four, 2);
+  EXPECT_FALSE(d.settled);
+  EXPECT_EQ(d.solves, 2);
+  EXPECT_GT(d.last_ratio, 1.02);
+  EXPECT_TRUE(d.solver.converged());
+  EXPECT_GT(d.sensor_depth_factor, 2.0) << "the step goes the right way";
 }
 
 /// Monocular: nothing to re-weight, one solve, the state solveDba's to the bit.

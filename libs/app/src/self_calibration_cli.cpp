@@ -188,23 +188,39 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
                std::to_string(cal.optimum.free_dof) +
                " free DoF): the self-calibration may be biased; consider --converge";
   // Without --converge the state is the input's, solved at the claimed weights: a depth-only
-  // factor far off the flow's variance factor means that state is biased.
-  const double flow =
-      cal.global_scale > 0 && std::isfinite(cal.global_scale) ? cal.global_scale : 1.0;
-  std::vector<double> stereo;
-  for (const EdgeCalibration& e : cal.edges)
-    if (e.i == e.j && e.rows > 0) stereo.push_back(e.inflation / flow);
-  const double sensor_ratio = cal.sensor_depth_rows > 0 ? cal.sensor_depth_scale / flow : 1.0;
-  const double stereo_ratio = stereo.empty() ? 1.0 : median(stereo);
-  const auto off = [](double r) { return r > 1.5 || r < 1 / 1.5; };
-  if (!cli_.converge && warning && warning->empty() && (off(sensor_ratio) || off(stereo_ratio)))
-    *warning =
-        name + ": the " +
-        (off(sensor_ratio) ? "sensor depths' variance factor is " + number(sensor_ratio)
-                           : "stereo edges' median variance factor is " + number(stereo_ratio)) +
-        "x the flow's: a state solved at the claimed weights is biased (errors in "
-        "variables: over-weighted depths shrink the translation); --converge re-solves at "
-        "the calibrated weights";
+  // factor far off the flow's variance factor means that state is biased (over-weighted) or
+  // wastes their information (under-weighted). The ratios are a single pass's (vce scales at the
+  // snapshot's weights); an iterated method's last pass is at re-weighted ones: no check.
+  if (!cli_.converge && warning && warning->empty() && cal.passes == 1) {
+    const DepthOnlyRatios r = depthOnlyRatios(cal, s.numEdges());
+    const double stereo = r.stereoMedian();
+    const auto off = [](double x) { return x > 1.5 || x < 1 / 1.5; };
+    std::string what;
+    double ratio = 1;
+    if (r.readings_unmeasured) {
+      what =
+          "sensor depths fit their readings exactly (no redundancy: alpha over-weighted "
+          "beyond measure)";
+      ratio = kUnmeasuredStep;
+    } else if (!r.unmeasured_edges.empty()) {
+      what = "stereo edge " + std::to_string(r.unmeasured_edges.front()) +
+             " fits its targets exactly (no redundancy: over-weighted beyond measure)";
+      ratio = kUnmeasuredStep;
+    } else if (off(r.sensor)) {
+      what = "sensor depths' variance factor is " + number(r.sensor) + "x the flow's";
+      ratio = r.sensor;
+    } else if (off(stereo)) {
+      what = "stereo edges' median variance factor is " + number(stereo) + "x the flow's";
+      ratio = stereo;
+    }
+    if (!what.empty())
+      *warning = name + ": the " + what +
+                 (ratio > 1 ? ": a state solved at the claimed weights is biased (errors in "
+                              "variables: over-weighted depths shrink the translation)"
+                            : ": under-weighted, the state solved at the claimed weights does "
+                              "not use their information") +
+                 "; --converge re-solves at the calibrated weights";
+  }
   std::ostringstream rows;
   for (const EdgeCalibration& e : cal.edges)
     rows << s.label() << ',' << e.i << ',' << e.j << ',' << e.pixels << ','

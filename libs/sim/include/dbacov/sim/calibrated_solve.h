@@ -8,18 +8,20 @@
 // weighted in their true variance ratio (Deming regression is consistent at the true ratio and
 // at no other). When the depth-only factors are claimed more precise than they are, the depths
 // follow their noisy readings and the translation shrinks towards zero (regression dilution); in
-// the other direction it grows. Measured (6-keyframe RGB-D scene, α claimed 4× the readings'
-// information, runs 700–709, states solved at the claimed α): every run's translation is 0.87–0.91
-// of the truth, raw ANEES 120, self-calibrated 62: a bias of the estimate that no covariance
-// covers.
+// the other direction their information is wasted (at α × ¼ no bias was measurable). Measured
+// (6-keyframe RGB-D scene, α claimed 4× the readings' information, runs 700–709, states solved at
+// the claimed α): every run's translation is 0.87–0.91 of the truth, raw ANEES 120, self-calibrated
+// 62: a bias of the estimate that no covariance covers.
 //
 // solveDbaAtCalibratedWeights removes it the classical way (Helmert's variance components
 // alternating with the adjustment): solve; estimate each depth-only component's variance factor
 // relative to the flow edges' pooled one (one vce pass without the depths' term: the ratios
-// only); divide the readings' α and each stereo edge's weights by their ratio; solve again, until
-// every ratio is within `tolerance` of 1. The flow edges keep their weights: a mis-weighting
-// among them costs efficiency, not consistency, and the covariance methods model it. On the
-// scene above: α within 6 % of the truth after 3 solves, raw ANEES 6.4, self-calibrated 5.3.
+// only; depthOnlyRatios); divide the readings' α and each stereo edge's weights by their ratio;
+// solve again, until every ratio is within `tolerance` of 1. A component with rows but no
+// redundancy (so heavily over-weighted that its residuals are 0) has its weight divided by
+// kUnmeasuredStep instead, until it can be measured. The flow edges keep their weights: a
+// mis-weighting among them costs efficiency, not consistency, and the covariance methods model it.
+// On the scene above: α within 6 % of the truth after 3 solves, raw ANEES 6.4, self-calibrated 5.3.
 //
 // A snapshot without depth-only factors is solved once at its own weights (plain --converge).
 #pragma once
@@ -27,10 +29,34 @@
 #include <vector>
 
 #include "dbacov/core/options.h"
+#include "dbacov/core/self_calibration.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/sim/dba_solver.h"
 
 namespace dbacov {
+
+/// The depth-only factors' variance factors relative to the flow's, from a self-calibration of
+/// the snapshot (any method: the vce scales of its first pass).
+struct DepthOnlyRatios {
+  /// Σ q / Σ redundancy over the flow edges (i ≠ j) at the snapshot's weights; 1 when they have
+  /// no redundancy.
+  double flow_scale = 1;
+  /// The readings' variance factor / flow_scale; 1 without readings. When the readings have rows
+  /// but no redundancy (each depth fits its reading exactly: α so large that the flow does not
+  /// move the depths) the factor cannot be measured: `readings_unmeasured`, and this is 1.
+  double sensor = 1;
+  bool readings_unmeasured = false;
+  /// Per edge: a stereo edge's vce scale / flow_scale, 1 for flow edges; a stereo edge with rows
+  /// but no redundancy is listed in `unmeasured_edges` and has 1 here.
+  std::vector<double> edge;
+  std::vector<int> unmeasured_edges;
+  double stereoMedian() const;  ///< over the measured stereo edges (1 without any)
+};
+DepthOnlyRatios depthOnlyRatios(const SelfCalibration& calibration, int num_edges);
+
+/// The step by which an unmeasurable depth-only component's weight is divided (the readings' α,
+/// a stereo edge's weights) before the next solve: it is over-weighted beyond measure.
+inline constexpr double kUnmeasuredStep = 100.0;
 
 struct CalibratedSolve {
   DbaSolverSummary solver;  ///< the last solve
@@ -51,7 +77,7 @@ struct CalibratedSolve {
 /// Throws what solveDba and selfCalibrate throw, and std::invalid_argument for max_solves < 1 or a
 /// tolerance not in (0, 1).
 CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& snapshot, const DbaOptions& options,
-                                            int max_solves = 6, double tolerance = 0.02,
+                                            int max_solves = 8, double tolerance = 0.02,
                                             const DbaSolverOptions& solver = {});
 
 }  // namespace dbacov
