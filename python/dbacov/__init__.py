@@ -81,7 +81,8 @@ def Covariance(snapshot, preset="droid", **options):
     with self_calibrate=True too, stereo edges and RGB-D readings are re-weighted at their
     calibrated variance ratio to the flow and the DBA re-solved until the ratios settle
     (.reweighting: None or a dict of solves, settled, last_ratio, sensor_depth_factor,
-    edge_factors).
+    edge_factors, failed_solve: None or the summary of a re-solve that did not converge, after
+    which the last converged state is kept).
     The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,
     sensor_depth_scale and sensor_depth_rows (RGB-D: the readings' variance factor, 1 without),
     depth_noise (applied or not), depth_noise_share (what it adds to the trace of the method's own covariance, a fraction),

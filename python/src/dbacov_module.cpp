@@ -484,6 +484,12 @@ PYBIND11_MODULE(_dbacov, m) {
                                d["solves"] = c.reweighted->solves;
                                d["settled"] = c.reweighted->settled;
                                d["last_ratio"] = c.reweighted->last_ratio;
+                               // a re-solve that did not converge (the state is the last
+                               // converged one): its summary, else None
+                               d["failed_solve"] =
+                                   c.reweighted->failed_solve
+                                       ? py::object(py::str(c.reweighted->failed_solve->brief()))
+                                       : py::object(py::none());
                                d["sensor_depth_factor"] = c.reweighted->sensor_depth_factor;
                                d["edge_factors"] = c.reweighted->edge_factors;
                                return std::move(d);

@@ -334,6 +334,7 @@ def test_converge_re_weights_mis_claimed_sensor_depths_as_the_cli(tmp_path):
                             self_calibrate=True, converge=True)
     rw = cov.reweighting
     assert rw["solves"] >= 2 and rw["settled"] and rw["last_ratio"] <= 1.02
+    assert rw["failed_solve"] is None
     assert 2.5 < rw["sensor_depth_factor"] < 6.0  # the truth: 4
     assert all(f == 1.0 for f in rw["edge_factors"])  # no stereo edge
     assert_agree(cov, cli_marginals(path, tmp_path, "--self-calibrate", "--converge", *claimed))

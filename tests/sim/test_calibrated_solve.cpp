@@ -238,6 +238,34 @@ TEST(CalibratedSolve, GrosslyOverWeightedReadingsSettleAndACappedRunSaysItDidNot
   EXPECT_GT(d.sensor_depth_factor, 2.0) << "the step goes the right way";
 }
 
+/// A re-solve that does not converge (here: 3 iterations allowed, the state already at the
+/// claimed α's optimum so the first solve converges) leaves the last converged state, its α and
+/// its solver summary, not the unconverged one.
+TEST(CalibratedSolve, AFailedReSolveKeepsTheLastConvergedState) {
+  const ScenarioConfig cfg = droidScene(SensorMode::Rgbd);
+  const Scenario sc(cfg);
+  DbaOptions claimed = cfg.engineOptions();
+  claimed.sensor_depth_weight *= 4.0;
+  Snapshot s = sc.simulate(0, 23).snapshot;
+  ASSERT_TRUE(solveDba(s, claimed).converged());
+  const Snapshot at_claimed = s;
+  DbaSolverOptions few;
+  few.max_iterations = 3;
+  const CalibratedSolve c = solveDbaAtCalibratedWeights(s, claimed, 8, 0.02, few);
+  ASSERT_TRUE(c.failed_solve.has_value()) << "the re-solve converged in 3 iterations: no test";
+  EXPECT_FALSE(c.failed_solve->converged());
+  EXPECT_FALSE(c.settled);
+  EXPECT_EQ(c.solves, 2);
+  EXPECT_TRUE(c.solver.converged());
+  EXPECT_EQ(c.options.sensor_depth_weight, claimed.sensor_depth_weight);
+  EXPECT_EQ(c.sensor_depth_factor, 1.0);
+  EXPECT_GT(c.last_ratio, 1.5);
+  // The first solve started at its optimum: the state is that optimum (to its last step).
+  for (int k = 0; k < s.numKeyframes(); ++k)
+    EXPECT_LT((s.T_wc(k).translation() - at_claimed.T_wc(k).translation()).norm(), 1e-6) << k;
+  EXPECT_TRUE(s.weight == at_claimed.weight);
+}
+
 /// Monocular: nothing to re-weight, one solve, the state solveDba's to the bit.
 TEST(CalibratedSolve, MonocularIsOneSolveAtTheClaimedWeights) {
   ScenarioConfig cfg = droidScene(SensorMode::Mono);

@@ -168,7 +168,12 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     else if (reweighted && !reweighted->settled && warning)
       *warning = name + ": --converge: the depth-only factors' variance ratios did not settle in " +
                  std::to_string(reweighted->solves) + " solves (still " +
-                 number(reweighted->last_ratio) + "x off)";
+                 number(reweighted->last_ratio) + "x off" +
+                 (reweighted->failed_solve ? "; the last re-solve did not converge (" +
+                                                 reweighted->failed_solve->brief() +
+                                                 "): the last converged state is kept"
+                                           : std::string()) +
+                 ")";
   }
   if (!cli_.enabled) {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -95,7 +95,7 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
     return step;
   };
   for (;;) {
-    if (!out.solver.converged()) {
+    if (!out.solver.converged()) {  // the first solve: nothing to go back to
       out.settled = false;
       return out;
     }
@@ -128,6 +128,9 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
       else if (steps[k] != 0.0)
         steps[k] = step_for(k, steps[k]);
     }
+    // A re-solve that does not converge leaves the last converged state and its weights.
+    const Snapshot before = s;
+    const CalibratedSolve kept = out;
     if (readings) {
       const double f = std::exp(steps[static_cast<std::size_t>(E)]);
       out.options.sensor_depth_weight /= f;
@@ -143,6 +146,16 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
     }
     out.solver = solveDba(s, out.options, solver);
     ++out.solves;
+    if (!out.solver.converged()) {
+      s = before;
+      const int solves = out.solves;
+      const DbaSolverSummary failed = out.solver;
+      out = kept;
+      out.solves = solves;
+      out.settled = false;
+      out.failed_solve = failed;
+      return out;
+    }
   }
 }
 

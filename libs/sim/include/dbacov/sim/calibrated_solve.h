@@ -26,6 +26,7 @@
 // A snapshot without depth-only factors is solved once at its own weights (plain --converge).
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "dbacov/core/options.h"
@@ -67,8 +68,11 @@ struct CalibratedSolve {
   /// Per edge: its weights were divided by this (stereo edges; 1 for the flow edges).
   std::vector<double> edge_factors;
   /// Every ratio settled within the tolerance (false: max_solves reached, or a solve failed to
-  /// converge; the state is then the last solve's).
+  /// converge). When a re-solve fails, the snapshot, `solver`, `options` and the factors are
+  /// those of the last converged solve (its failure is in `failed_solve`); when the first solve
+  /// fails, its state is returned as it ended (as solveDba's).
   bool settled = true;
+  std::optional<DbaSolverSummary> failed_solve;  ///< a re-solve that did not converge
   /// The largest remaining ratio's distance from 1 (max |log ratio|, as a factor: 1.02 = 2 %).
   double last_ratio = 1;
 };
