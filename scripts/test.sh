@@ -40,11 +40,13 @@ if [[ " $passes " == *" asan "* ]]; then
   export ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   # The Monte Carlo tests repeat, 20 to 100 times, solves whose every code path a single-run test
   # also takes under the sanitizers (SimulApp, DroidModes, SelfCalibration, ImageFlow.OpenCvFlow...,
-  # SequenceInformation.Export...); they prove statistics, which the Release pass checks. Here they
-  # would be half of the suite's time and find nothing the single runs do not.
+  # SequenceInformation.Export..., CalibratedSolve.Grossly...); they prove statistics, which the
+  # Release pass checks. Here they would be half of the suite's time and find nothing the single
+  # runs do not.
   statistical='^(MonteCarlo|SelfCalibrationMonteCarlo)\.|^ImageFlow\.RealFlowIsOverConfidentUntilSelfCalibrated$'
   statistical+='|^SequenceInformation\.PerSnapshotMarginalGraphIsOverConfidentSequenceGraphIsNot$'
   statistical+='|^SequenceInformation\.SharedFlowsChainedGaugeSequenceGraphConsistentAndNoLessAccurate$'
+  statistical+='|^CalibratedSolve\.OverWeighted'  # its single runs: CalibratedSolve's other tests
   log=build-asan/ctest.log
   status=0
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$statistical" "$@" 2>&1 |
