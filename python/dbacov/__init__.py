@@ -80,7 +80,7 @@ def Covariance(snapshot, preset="droid", **options):
     converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one);
     with self_calibrate=True too, stereo edges and RGB-D readings are re-weighted at their
     calibrated variance ratio to the flow and the DBA re-solved until the ratios settle
-    (.reweighting: None or a dict of solves, settled, last_ratio, sensor_depth_factor,
+    (.reweighting: None or a dict of solves, settled, last_ratio, unmeasured, sensor_depth_factor,
     edge_factors, failed_solve: None or the summary of a re-solve that did not converge, after
     which the last converged state is kept).
     The result's .self_calibration is None or a dict (method, global_scale, passes, optimum,

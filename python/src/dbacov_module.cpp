@@ -484,6 +484,7 @@ PYBIND11_MODULE(_dbacov, m) {
                                d["solves"] = c.reweighted->solves;
                                d["settled"] = c.reweighted->settled;
                                d["last_ratio"] = c.reweighted->last_ratio;
+                               d["unmeasured"] = c.reweighted->unmeasured;
                                // a re-solve that did not converge (the state is the last
                                // converged one): its summary, else None
                                d["failed_solve"] =

@@ -210,9 +210,9 @@ TEST(CalibratedSolve, ComponentsWithoutRedundancyAreUnmeasured) {
   EXPECT_DOUBLE_EQ(depthOnlyRatios(cal, 3).sensor, 4.0);
 }
 
-/// Readings claimed 25 000× their information: one pass saturates (it measures ≈ 5 whatever the
-/// true factor); the secant's doubling reaches the factor in a few solves. Capped at 2 solves
-/// the run says it did not settle, with the ratio left.
+/// Readings claimed 25 000× their information, and 1e-11 of it: one pass saturates (it measures ≈ 5
+/// whatever the true factor); the secant's doubling reaches the factor in a few solves. Capped at 2
+/// solves the run says it did not settle, with the ratio left.
 TEST(CalibratedSolve, GrosslyOverWeightedReadingsSettleAndACappedRunSaysItDidNot) {
   const ScenarioConfig cfg = droidScene(SensorMode::Rgbd);
   const Scenario sc(cfg);
@@ -228,6 +228,16 @@ TEST(CalibratedSolve, GrosslyOverWeightedReadingsSettleAndACappedRunSaysItDidNot
               1e-9 * c.options.sensor_depth_weight);
   EXPECT_LE(c.last_ratio, 1.02);
 
+  // 1e11× under-weighted: the ratio pass is not clamped (clamped at 1e-9 it read as a
+  // measurement and the secant overshot 10×, then settled in 6).
+  DbaOptions low = o;
+  low.sensor_depth_weight *= 1e-11;
+  Snapshot u = sc.simulate(0, 23).snapshot;
+  const CalibratedSolve l = solveDbaAtCalibratedWeights(u, low);
+  EXPECT_TRUE(l.settled) << l.solves << " solves, " << l.last_ratio << "x left";
+  EXPECT_LE(l.solves, 4);
+  EXPECT_NEAR(l.sensor_depth_factor / 1e-11, 1.0, 0.15);
+
   DbaOptions four = o;
   four.sensor_depth_weight *= 4.0;
   const CalibratedSolve d = solveDbaAtCalibratedWeights(capped, four, 2);
@@ -239,31 +249,40 @@ TEST(CalibratedSolve, GrosslyOverWeightedReadingsSettleAndACappedRunSaysItDidNot
 }
 
 /// A re-solve that does not converge (here: 3 iterations allowed, the state already at the
-/// claimed α's optimum so the first solve converges) leaves the last converged state, its α and
-/// its solver summary, not the unconverged one.
+/// claimed weights' optimum so the first solve converges) leaves the last converged state, its
+/// α, its stereo weights and its solver summary, not the unconverged one. RGB-D (α claimed × 4)
+/// and stereo (the stereo edges' weights × 4).
 TEST(CalibratedSolve, AFailedReSolveKeepsTheLastConvergedState) {
-  const ScenarioConfig cfg = droidScene(SensorMode::Rgbd);
-  const Scenario sc(cfg);
-  DbaOptions claimed = cfg.engineOptions();
-  claimed.sensor_depth_weight *= 4.0;
-  Snapshot s = sc.simulate(0, 23).snapshot;
-  ASSERT_TRUE(solveDba(s, claimed).converged());
-  const Snapshot at_claimed = s;
-  DbaSolverOptions few;
-  few.max_iterations = 3;
-  const CalibratedSolve c = solveDbaAtCalibratedWeights(s, claimed, 8, 0.02, few);
-  ASSERT_TRUE(c.failed_solve.has_value()) << "the re-solve converged in 3 iterations: no test";
-  EXPECT_FALSE(c.failed_solve->converged());
-  EXPECT_FALSE(c.settled);
-  EXPECT_EQ(c.solves, 2);
-  EXPECT_TRUE(c.solver.converged());
-  EXPECT_EQ(c.options.sensor_depth_weight, claimed.sensor_depth_weight);
-  EXPECT_EQ(c.sensor_depth_factor, 1.0);
-  EXPECT_GT(c.last_ratio, 1.5);
-  // The first solve started at its optimum: the state is that optimum (to its last step).
-  for (int k = 0; k < s.numKeyframes(); ++k)
-    EXPECT_LT((s.T_wc(k).translation() - at_claimed.T_wc(k).translation()).norm(), 1e-6) << k;
-  EXPECT_TRUE(s.weight == at_claimed.weight);
+  for (const SensorMode mode : {SensorMode::Rgbd, SensorMode::Stereo}) {
+    SCOPED_TRACE(mode == SensorMode::Rgbd ? "rgbd" : "stereo");
+    const ScenarioConfig cfg = droidScene(mode);
+    const Scenario sc(cfg);
+    DbaOptions claimed = cfg.engineOptions();
+    Snapshot s = sc.simulate(0, 23).snapshot;
+    if (mode == SensorMode::Rgbd) claimed.sensor_depth_weight *= 4.0;
+    const std::size_t plane = 2 * s.pixelsPerFrame();
+    for (int e = 0; e < s.numEdges(); ++e)
+      if (s.ii[e] == s.jj[e])
+        for (std::size_t p = 0; p < plane; ++p) s.weight[e * plane + p] *= 4.0f;
+    ASSERT_TRUE(solveDba(s, claimed).converged());
+    const Snapshot at_claimed = s;
+    DbaSolverOptions few;
+    few.max_iterations = 3;
+    const CalibratedSolve c = solveDbaAtCalibratedWeights(s, claimed, 8, 0.02, few);
+    ASSERT_TRUE(c.failed_solve.has_value()) << "the re-solve converged in 3 iterations: no test";
+    EXPECT_FALSE(c.failed_solve->converged());
+    EXPECT_FALSE(c.settled);
+    EXPECT_EQ(c.solves, 2);
+    EXPECT_TRUE(c.solver.converged());
+    EXPECT_EQ(c.options.sensor_depth_weight, claimed.sensor_depth_weight);
+    EXPECT_EQ(c.sensor_depth_factor, 1.0);
+    for (double f : c.edge_factors) EXPECT_EQ(f, 1.0);
+    EXPECT_GT(c.last_ratio, 1.5);
+    // The first solve started at its optimum: the state is that optimum (to its last step).
+    for (int k = 0; k < s.numKeyframes(); ++k)
+      EXPECT_LT((s.T_wc(k).translation() - at_claimed.T_wc(k).translation()).norm(), 1e-6) << k;
+    EXPECT_TRUE(s.weight == at_claimed.weight) << "the stereo weights were not restored";
+  }
 }
 
 /// Monocular: nothing to re-weight, one solve, the state solveDba's to the bit.

@@ -168,7 +168,9 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     else if (reweighted && !reweighted->settled && warning)
       *warning = name + ": --converge: the depth-only factors' variance ratios did not settle in " +
                  std::to_string(reweighted->solves) + " solves (still " +
-                 number(reweighted->last_ratio) + "x off" +
+                 (reweighted->unmeasured ? "over-weighted beyond measure, at least " +
+                                               number(reweighted->last_ratio) + "x off"
+                                         : number(reweighted->last_ratio) + "x off") +
                  (reweighted->failed_solve ? "; the last re-solve did not converge (" +
                                                  reweighted->failed_solve->brief() +
                                                  "): the last converged state is kept"

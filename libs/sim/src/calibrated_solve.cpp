@@ -68,12 +68,17 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
   ratios.method = SelfCalibrationMethod::Vce;
   ratios.iterations = 1;
   ratios.depth_noise = false;
+  // No clamping of the ratios: a clamped one would read as a measurement and mislead the secant
+  // (readings 1e9× under-weighted measured 1e-9 and the next step overshot 10×).
+  ratios.min_inflation = 1e-300;
+  ratios.max_inflation = 1e300;
   const double bound = std::log1p(tolerance);
   const std::size_t plane = 2 * s.pixelsPerFrame();
   const int E = s.numEdges();
   // Per component (slot E: the readings): the log ratio measured before the last step and that
   // step, for the secant below; NaN = no history (first pass, or an unmeasured step).
   const double none = std::numeric_limits<double>::quiet_NaN();
+  const double kMaxLogStep = std::log(1e9);  // no single step beyond 1e9×
   std::vector<double> last_log(static_cast<std::size_t>(E) + 1, none), last_step = last_log;
   // The log step for a measured log ratio l. One pass at the claimed weights' optimum is pulled
   // towards 1 (the flow rows that share the depths absorb part of the misfit): at 4× it measures
@@ -90,6 +95,7 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
       else if (l * last_step[k] > 0)
         step = std::copysign(std::max(std::abs(l), 2 * std::abs(last_step[k])), l);
     }
+    step = std::clamp(step, -kMaxLogStep, kMaxLogStep);
     last_log[k] = l;
     last_step[k] = step;
     return step;
@@ -117,15 +123,16 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
       worst = std::max(worst, std::abs(steps[k]));
     }
     out.last_ratio = std::exp(worst);
+    out.unmeasured = std::find(measured.begin(), measured.end(), false) != measured.end();
     if (worst <= bound) return out;
     if (out.solves >= max_solves) {
       out.settled = false;
       return out;
     }
     for (std::size_t k = 0; k < steps.size(); ++k) {
-      if (!measured[k])
+      if (!measured[k] || steps[k] == 0.0)
         last_log[k] = none;
-      else if (steps[k] != 0.0)
+      else
         steps[k] = step_for(k, steps[k]);
     }
     // A re-solve that does not converge leaves the last converged state and its weights.
@@ -141,8 +148,7 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
       const double f = std::exp(steps[static_cast<std::size_t>(e)]);
       out.edge_factors[static_cast<std::size_t>(e)] *= f;
       float* w = &s.weight[static_cast<std::size_t>(e) * plane];
-      const float inv = static_cast<float>(1.0 / f);
-      for (std::size_t p = 0; p < plane; ++p) w[p] *= inv;
+      for (std::size_t p = 0; p < plane; ++p) w[p] = static_cast<float>(w[p] / f);
     }
     out.solver = solveDba(s, out.options, solver);
     ++out.solves;

@@ -74,7 +74,10 @@ struct CalibratedSolve {
   bool settled = true;
   std::optional<DbaSolverSummary> failed_solve;  ///< a re-solve that did not converge
   /// The largest remaining ratio's distance from 1 (max |log ratio|, as a factor: 1.02 = 2 %).
+  /// With `unmeasured` a component could not be measured at the last pass and counts as
+  /// kUnmeasuredStep: the real distance is at least that, and unknown.
   double last_ratio = 1;
+  bool unmeasured = false;
 };
 
 /// Solves `snapshot` (its state and, for stereo edges, its weights are overwritten) as above.
