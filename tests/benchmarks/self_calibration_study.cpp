@@ -204,14 +204,10 @@ int main(int argc, char** argv) {
     const auto run_all = [&](int run, bool evaluation) {
       for (int s = 0; s < sc.numSnapshots(); ++s) {
         sim::SimulatedSnapshot snap = sc.simulate(s, static_cast<std::uint64_t>(run));
-        if (src.claimed_stereo_factor != 1.0) {
-          const std::size_t plane = 2 * snap.snapshot.pixelsPerFrame();
+        if (src.claimed_stereo_factor != 1.0)
           for (int e = 0; e < snap.snapshot.numEdges(); ++e)
             if (snap.snapshot.ii[e] == snap.snapshot.jj[e])
-              for (std::size_t p = 0; p < plane; ++p)
-                snap.snapshot.weight[e * plane + p] *=
-                    static_cast<float>(src.claimed_stereo_factor);
-        }
+              divideEdgeWeights(snap.snapshot, e, 1.0 / src.claimed_stereo_factor);
         const std::int64_t label = static_cast<std::int64_t>(run) * sc.numSnapshots() + s;
         if (!evaluation) {
           calib.append(sim::evaluateSnapshot(snap, o, label));

@@ -18,6 +18,12 @@ double DepthOnlyRatios::stereoMedian() const {
   return v[v.size() / 2];
 }
 
+void divideEdgeWeights(Snapshot& s, int edge, double factor) {
+  const std::size_t plane = 2 * s.pixelsPerFrame();
+  float* w = &s.weight[static_cast<std::size_t>(edge) * plane];
+  for (std::size_t p = 0; p < plane; ++p) w[p] = static_cast<float>(w[p] / factor);
+}
+
 DepthOnlyRatios depthOnlyRatios(const SelfCalibration& cal, int num_edges) {
   DepthOnlyRatios out;
   out.edge.assign(static_cast<std::size_t>(num_edges), 1.0);
@@ -73,7 +79,6 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
   ratios.min_inflation = 1e-300;
   ratios.max_inflation = 1e300;
   const double bound = std::log1p(tolerance);
-  const std::size_t plane = 2 * s.pixelsPerFrame();
   const int E = s.numEdges();
   // Per component (slot E: the readings): the log ratio measured before the last step and that
   // step, for the secant below; NaN = no history (first pass, or an unmeasured step).
@@ -147,8 +152,7 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
       if (steps[static_cast<std::size_t>(e)] == 0.0) continue;
       const double f = std::exp(steps[static_cast<std::size_t>(e)]);
       out.edge_factors[static_cast<std::size_t>(e)] *= f;
-      float* w = &s.weight[static_cast<std::size_t>(e) * plane];
-      for (std::size_t p = 0; p < plane; ++p) w[p] = static_cast<float>(w[p] / f);
+      divideEdgeWeights(s, e, f);
     }
     out.solver = solveDba(s, out.options, solver);
     ++out.solves;

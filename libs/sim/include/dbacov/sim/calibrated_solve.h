@@ -55,6 +55,9 @@ struct DepthOnlyRatios {
 };
 DepthOnlyRatios depthOnlyRatios(const SelfCalibration& calibration, int num_edges);
 
+/// Edge `edge`'s confidences (both channels, every pixel) become w / factor, computed in double.
+void divideEdgeWeights(Snapshot& snapshot, int edge, double factor);
+
 /// The step by which an unmeasurable depth-only component's weight is divided (the readings' α,
 /// a stereo edge's weights) before the next solve: it is over-weighted beyond measure.
 inline constexpr double kUnmeasuredStep = 100.0;
