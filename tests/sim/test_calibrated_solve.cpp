@@ -7,8 +7,10 @@
 #include <algorithm>
 #include <cstdio>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
+#include "dbacov/core/errors.h"
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/sim/calibrated_solve.h"
 #include "dbacov/sim/consistency.h"
@@ -301,6 +303,34 @@ TEST(CalibratedSolve, MonocularIsOneSolveAtTheClaimedWeights) {
   EXPECT_THROW(solveDbaAtCalibratedWeights(b, o, 0), std::invalid_argument);
   EXPECT_THROW(solveDbaAtCalibratedWeights(b, o, 6, 0.0), std::invalid_argument);
   EXPECT_THROW(solveDbaAtCalibratedWeights(b, o, 6, 1.0), std::invalid_argument);
+}
+
+/// DROID's one-pose gauge on RGB-D leaves the scale to the sensor readings: with their weight
+/// claimed 1e-30 of what it is the scale is unobservable. The self-calibration must say so as the
+/// plain covariance does (it said only "not positive definite (self-calibration)"): the keyframe
+/// where S breaks down, and the likely cause.
+TEST(CalibratedSolve, AScaleLeftToNegligibleSensorDepthsIsANamedNumericalError) {
+  const ScenarioConfig cfg = droidScene(SensorMode::Rgbd);
+  const Scenario sc(cfg);
+  DbaOptions o = cfg.engineOptions();
+  o.sensor_depth_weight *= 1e-30;
+  const Snapshot s = sc.simulate(0, 23).snapshot;
+  try {
+    (void)selfCalibrate(s, o, SelfCalibrationOptions{});
+    ADD_FAILURE() << "expected a NumericalError";
+  } catch (const NumericalError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("the reduced information matrix S is not positive definite at the "
+                         "self-calibration's weights (breakdown at keyframe ",
+                         0),
+              0u)
+        << what;
+    EXPECT_NE(what.find("a scale fixed only by sensor depths whose weight is negligible"),
+              std::string::npos)
+        << what;
+    ASSERT_EQ(e.keyframes().size(), 1u);
+    EXPECT_GT(e.keyframes()[0], 0) << "keyframe 0 is held by the gauge";
+  }
 }
 
 }  // namespace

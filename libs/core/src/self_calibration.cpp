@@ -105,11 +105,26 @@ DenseModel buildModel(const Snapshot& s, const DbaOptions& o, bool keep_depth_te
     if (!m.Sr.allFinite())
       throw NumericalError(s.source + ": the information matrix has non-finite entries", {});
     const Eigen::LLT<Eigen::MatrixXd> llt(m.Sr);
-    if (llt.info() != Eigen::Success)
-      throw NumericalError(s.source +
-                               ": the reduced information matrix S is not positive definite "
-                               "(self-calibration)",
-                           m.ne.keyframes);
+    if (llt.info() != Eigen::Success) {
+      // Name the keyframe where it breaks down, as the covariance's own factorization does: the
+      // first whose leading block (the free DoF up to and including its own) is not definite.
+      std::vector<int> kf;
+      for (int a = 0; a < n && kf.empty(); ++a) {
+        const int k = m.gauge.offset[a] + m.gauge.dimOf(a);
+        if (m.gauge.dimOf(a) > 0 &&
+            Eigen::LLT<Eigen::MatrixXd>(m.Sr.topLeftCorner(k, k)).info() != Eigen::Success)
+          kf.push_back(m.ne.keyframes[a]);
+      }
+      throw NumericalError(
+          // (no source prefix: the callers name the snapshot, as for the covariance's own)
+          "the reduced information matrix S is not positive definite at the self-calibration's "
+          "weights" +
+              (kf.empty() ? std::string() : " (breakdown at keyframe " + joinKeyframes(kf) + ")") +
+              ": some motion is unobservable (degenerate geometry, too few weighted pixels, a "
+              "gauge that does not fix every DoF, or a scale fixed only by sensor depths whose "
+              "weight is negligible)",
+          kf.empty() ? m.ne.keyframes : kf);
+    }
     m.L_r = llt.matrixL();
     m.Sigma_r = llt.solve(Eigen::MatrixXd::Identity(K, K));
     m.Sigma_r = 0.5 * (m.Sigma_r + m.Sigma_r.transpose());
