@@ -87,6 +87,7 @@ def Covariance(snapshot, preset="droid", **options):
     sensor_depth_scale and sensor_depth_rows (RGB-D: the readings' variance factor, 1 without),
     depth_noise (applied or not), depth_noise_share (what it adds to the trace of the method's own covariance, a fraction),
     depth_noise_kurtosis (the residuals' excess kurtosis the term used),
+    depth_noise_cross_kurtosis (the two flow axes' joint fourth cumulant it used),
     edges: one array per --edge-csv column; nuisance adds field_sigma, field_fine_sigma (px)
     and field_params)."""
     if not isinstance(snapshot, _Snapshot):

@@ -475,6 +475,8 @@ PYBIND11_MODULE(_dbacov, m) {
                                c.calibration->method != SelfCalibrationMethod::Bootstrap;
             d["depth_noise_share"] = c.cov->summary().self_calibration.depth_noise_share;
             d["depth_noise_kurtosis"] = c.cov->summary().self_calibration.depth_noise_kurtosis;
+            d["depth_noise_cross_kurtosis"] =
+                c.cov->summary().self_calibration.depth_noise_cross_kurtosis;
             return std::move(d);
           })
       .def_property_readonly("reweighting",

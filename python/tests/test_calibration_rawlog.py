@@ -140,6 +140,9 @@ def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
     share = 100 * on.self_calibration["depth_noise_share"]
     assert f"depths' second-order term median +{share:.6g} % on the calibrated trace (residual excess kurtosis median" in r.stderr
     assert on.self_calibration["depth_noise_kurtosis"] >= 0
+    # DROID's residuals are heavy-tailed, and jointly so across the flow's two axes.
+    assert on.self_calibration["depth_noise_cross_kurtosis"] > 0
+    assert ", joint across the flow axes " in r.stderr
     r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"),
                 "--self-calibrate-depth-noise", "off")
     assert r.returncode == 0 and "second-order" not in r.stderr, r.stderr

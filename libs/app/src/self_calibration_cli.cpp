@@ -261,6 +261,7 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   if (cal.depth_noise && cal.method != SelfCalibrationMethod::Bootstrap) {
     depth_shares_.push_back(cov->summary().self_calibration.depth_noise_share);
     kurtoses_.push_back(cov->summary().self_calibration.depth_noise_kurtosis);
+    cross_kurtoses_.push_back(cov->summary().self_calibration.depth_noise_cross_kurtosis);
   }
   steps_.push_back(cal.optimum.step_sigma / std::sqrt(std::max(1, cal.optimum.free_dof)));
   ++snapshots_;
@@ -329,7 +330,8 @@ std::string SelfCalibrationRun::summaryLine() const {
   if (!depth_shares_.empty())
     os << ", depths' second-order term median +" << number(100 * median(depth_shares_))
        << " % on the calibrated trace (residual excess kurtosis median "
-       << number(median(kurtoses_)) << ")";
+       << number(median(kurtoses_)) << ", joint across the flow axes "
+       << number(median(cross_kurtoses_)) << ")";
   if (snapshots_ > 0) os << ", " << number(seconds_ / snapshots_) << " s per snapshot";
   if (!steps_.empty())
     os << ", Gauss-Newton step to the optimum median " << number(median(steps_))

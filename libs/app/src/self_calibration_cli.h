@@ -54,10 +54,11 @@ class SelfCalibrationRun {
   std::vector<double> inflations_, scales_, steps_;
   std::vector<double> field_sigmas_, fine_sigmas_;  ///< nuisance: σ_a, σ_f per snapshot
   std::vector<double> boot_scales_;                 ///< bootstrap: k per snapshot
-  std::vector<double> depth_shares_;   ///< what the depths' term adds to the trace, per snapshot
-  std::vector<double> kurtoses_;       ///< the residuals' excess kurtosis it used, per snapshot
-  std::vector<double> sensor_scales_;  ///< RGB-D: the readings' variance factor, per snapshot
-  int boot_failed_ = 0;                ///< bootstrap: unconverged replicates
+  std::vector<double> depth_shares_;    ///< what the depths' term adds to the trace, per snapshot
+  std::vector<double> kurtoses_;        ///< the residuals' excess kurtosis it used, per snapshot
+  std::vector<double> cross_kurtoses_;  ///< the flow axes' joint fourth cumulant, per snapshot
+  std::vector<double> sensor_scales_;   ///< RGB-D: the readings' variance factor, per snapshot
+  int boot_failed_ = 0;                 ///< bootstrap: unconverged replicates
   std::map<std::int64_t, std::string> warnings_;
   /// --converge at the calibrated weights: snapshots re-solved, their solves and factors.
   int reweighted_ = 0;

@@ -35,9 +35,18 @@ Eigen::Matrix<double, 2, 6> pixelFactorJacobianDepthDerivative(const Eigen::Vect
 
 namespace {
 
-/// Per edge: rows and the sums of z² and z⁴ of the standardized residuals.
+/// Per edge: rows and the sums of z² and z⁴ of the standardized residuals; the factors with both
+/// axes measured, Σ z_x² z_y² and Σ z_x z_y (the axes' joint fourth moment and correlation).
 struct EdgeMoments {
   double rows = 0, s2 = 0, s4 = 0;
+  double pairs = 0, sxy = 0, cxy = 0;
+};
+
+/// The fourth cumulants the κ terms are formed with: γ₂ on each axis, γ_xy across the two axes
+/// of one factor (depth_noise.h).
+struct Cumulants {
+  double gamma2 = 0, gamma_xy = 0;
+  bool any() const { return gamma2 > 0 || gamma_xy > 0; }
 };
 
 struct SourceTerms {
@@ -47,8 +56,10 @@ struct SourceTerms {
   std::vector<std::pair<int, EdgeMoments>> moments;  ///< (edge, its moments)
 };
 
+/// One source keyframe's terms; with `kc` null only the residuals' moments (the pass that finds
+/// the cumulants before the terms are formed with them).
 SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalEquations& ne,
-                        const DepthTerms& dt) {
+                        const DepthTerms& dt, const Cumulants* kc, bool with_moments = true) {
   SourceTerms out;
   const int src = ne.keyframes[dt.source_slot];
   const int T = static_cast<int>(dt.touched.size());
@@ -72,6 +83,7 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
                      T_ji.translation(), adjoint(T_ji)});
   }
   const int E = static_cast<int>(edges.size());
+  const bool moments_only = kc == nullptr, kappa = kc && kc->any();
   out.M = Eigen::MatrixXd::Zero(6 * T, 6 * T);
   out.N = Eigen::MatrixXd::Zero(6 * T, 6 * T);
   out.Mk = Eigen::MatrixXd::Zero(6 * T, 6 * T);
@@ -98,13 +110,19 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   // The columns' stride: a multiple of 8 doubles plus 8, never a multiple of 4 KiB (with P =
   // 3072 depths it was 24 KiB, so the 6E entries one depth writes across a column-major matrix
   // all fell in one L1 set and evicted each other at every depth).
-  const Eigen::Index P = (static_cast<Eigen::Index>(dt.pixel.size()) + 7) / 8 * 8 + 8;
+  const Eigen::Index P =
+      moments_only ? 0 : (static_cast<Eigen::Index>(dt.pixel.size()) + 7) / 8 * 8 + 8;
   Eigen::MatrixXd Cm(P, 6 * E), Vm(P, 6 * E);
-  // The fourth-cumulant terms (depth_noise.h), per unit γ₂: Σ_f w_f β_f β_fᵀ with w_f =
-  // J_d,f²/h² and β_f = L_f − α_f c (L_f = Λ_f J'_f on its edge's 6 coordinates, α_f =
-  // Λ_f J_d,f/h) is Σ w L Lᵀ (per edge, Ak) − (ℓ cᵀ + c ℓᵀ) + s c cᵀ with ℓ = Σ w α L and
-  // s = Σ w α²: rows h ℓ (against Cm's c/h) and √s c; N's rows v · ½√(Σ Λ² J_d⁴)/h².
-  Eigen::MatrixXd Lm(P, 6 * E), Sm(P, 6 * E), Vk(P, 6 * E);
+  // The fourth-cumulant terms (depth_noise.h): Σ_{f,g} ω_fg β_f β_gᵀ over the pairs of rows with
+  // a joint fourth cumulant (a row with itself, ω_ff = γ₂ J_d,f²/h²; the two axes of one factor,
+  // ω_xx = γ_xy Λ_y J_d,y²/(Λ_x h²), ω_yy likewise, ω_xy = ω_yx = 2 γ_xy J_d,x J_d,y/h²), with
+  // β_f = L_f − α_f c (L_f = Λ_f J'_f on its edge's 6 coordinates, α_f = Λ_f J_d,f/h), is
+  // Σ ω L Lᵀ (per edge, Ak) − (ℓ cᵀ + c ℓᵀ) + s c cᵀ with ℓ = Σ ω_fg α_g L_f and
+  // s = Σ ω_fg α_f α_g: rows h ℓ (against Cm's c/h) and √s c; N's rows v · ½√n4/h² with
+  // n4 = Σ γ₂ Λ² J_d⁴ + 6 γ_xy Λ_x Λ_y J_d,x² J_d,y². Only formed when a cumulant is positive.
+  const Eigen::Index Pk = kappa ? P : 0;
+  Eigen::MatrixXd Lm(Pk, 6 * E), Sm(Pk, 6 * E), Vk(Pk, 6 * E);
+  const double g2 = kc ? kc->gamma2 : 0.0, gxy = kc ? kc->gamma_xy : 0.0;
   Eigen::VectorXd ell(6 * E);
   Eigen::VectorXd vsum = Eigen::VectorXd::Zero(6 * E);  // Σ v / (2h)
   Eigen::VectorXd c(6 * E), u(6 * E), bq(6 * E);
@@ -117,23 +135,56 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     u.setZero();
     bq.setZero();
     ell.setZero();
-    double sdd = 0;           // Σ J_dᵀ Λ r''
-    double sk = 0, l2j4 = 0;  // Σ w α², Σ Λ² J_d⁴
+    double sdd = 0;         // Σ J_dᵀ Λ r''
+    double sk = 0, n4 = 0;  // s and n4 above
     bool any = false;
-    // One axis of a flow factor: the κ sums and the residual's moments (z² = Λ r² / (1 − Λ J_d²
-    // / h), the depth's leverage taken out; the poses' is small and left in).
-    const auto axis = [&](double lam, double jd, double r, EdgeMoments& m) {
-      const double alpha = lam * jd * inv_h, w = jd * jd * inv_h * inv_h;
-      sk += w * alpha * alpha;
-      l2j4 += lam * lam * jd * jd * jd * jd;
-      const double lev = lam * jd * jd * inv_h;
-      if (lev < 0.999) {
-        const double z2 = lam * r * r / (1.0 - lev);
+    // One factor's residual moments: z = √Λ r / √(1 − Λ J_d² / h) per axis (the depth's leverage
+    // taken out; the poses' is small and left in), 0 where the depth takes it all.
+    const auto moments = [&](const Eigen::Vector2d& lam, const PixelFactorLinearization& f,
+                             EdgeMoments& m) {
+      double z[2] = {0.0, 0.0};
+      for (int ch = 0; ch < 2; ++ch) {
+        if (!(lam[ch] > 0)) continue;
+        const double lev = lam[ch] * f.J_d[ch] * f.J_d[ch] * inv_h;
+        if (!(lev < 0.999)) continue;
+        z[ch] = std::sqrt(lam[ch] / (1.0 - lev)) * f.r[ch];
+        const double z2 = z[ch] * z[ch];
         m.rows += 1;
         m.s2 += z2;
         m.s4 += z2 * z2;
       }
-      return w * alpha;
+      if (z[0] != 0 && z[1] != 0) {
+        m.pairs += 1;
+        m.sxy += z[0] * z[0] * z[1] * z[1];
+        m.cxy += z[0] * z[1];
+      }
+    };
+    // One factor's κ weights (above) as the 2 × 2 Ω = (ω_fg) over its two axes: s += αᵀΩα,
+    // n4, and, for a factor with a pose part (L: its two axes' L_f, 6 × 2), its edge's
+    // Ak += L Ω Lᵀ and ℓ += L Ω α. (An axis without weight has L_f = 0 and α_f = 0.)
+    const auto kappaTerms = [&](const Eigen::Vector2d& lam, const Eigen::Vector2d& jd,
+                                const Eigen::Matrix<double, 6, 2>* L, int q) {
+      const double ih2 = inv_h * inv_h;
+      const Eigen::Vector2d al(lam[0] * jd[0] * inv_h, lam[1] * jd[1] * inv_h);
+      const double jx2 = jd[0] * jd[0], jy2 = jd[1] * jd[1];
+      Eigen::Matrix2d W = Eigen::Matrix2d::Zero();
+      for (int ch = 0; ch < 2; ++ch)
+        if (lam[ch] > 0) {
+          W(ch, ch) = g2 * jd[ch] * jd[ch] * ih2;
+          n4 += g2 * lam[ch] * lam[ch] * jd[ch] * jd[ch] * jd[ch] * jd[ch];
+        }
+      if (gxy > 0 && lam[0] > 0 && lam[1] > 0) {
+        W(0, 0) += gxy * lam[1] * jy2 / lam[0] * ih2;
+        W(1, 1) += gxy * lam[0] * jx2 / lam[1] * ih2;
+        W(0, 1) = W(1, 0) = 2.0 * gxy * jd[0] * jd[1] * ih2;
+        n4 += 6.0 * gxy * lam[0] * lam[1] * jx2 * jy2;
+      }
+      const Eigen::Vector2d Wa = W * al;
+      sk += al.dot(Wa);
+      if (!L) return;
+      const Eigen::Matrix<double, 6, 2> LW = *L * W;
+      Ak[q].noalias() += LW * L->transpose();
+      ell.segment<6>(6 * q).noalias() += *L * Wa;
     };
     for (int q = 0; q < E; ++q) {
       const EdgeRef& er = edges[q];
@@ -146,24 +197,20 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
       PixelFactorLinearization f;
       linearizePixelFactorAt(Y, er.t, K, d, s.targetPlane(er.edge, 0)[p],
                              s.targetPlane(er.edge, 1)[p], &f);
+      if (with_moments) moments(lam, f, mom[q]);
+      any = true;
+      if (moments_only) continue;
       Eigen::Vector2d rdd;
       const Eigen::Matrix<double, 2, 6> Jp =
           pixelFactorJacobianDepthDerivative(Y, er.t, K.fx, K.fy, d, &rdd);
       const Eigen::Matrix<double, 6, 2> JpL = Jp.transpose() * lam.asDiagonal();
       const Eigen::Matrix<double, 6, 2> JjL = f.J_j.transpose() * lam.asDiagonal();
       A[q].noalias() += (JpL * inv_h) * Jp;  // one scaling of 12, not a division of 36
-      for (int ch = 0; ch < 2; ++ch) {
-        if (!(lam[ch] > 0)) continue;
-        const double wa = axis(lam[ch], f.J_d[ch], f.r[ch], mom[q]);
-        const double w = f.J_d[ch] * f.J_d[ch] * inv_h * inv_h;
-        Ak[q].noalias() += w * JpL.col(ch) * JpL.col(ch).transpose();
-        ell.segment<6>(6 * q) += wa * JpL.col(ch);
-      }
+      if (kappa) kappaTerms(lam, f.J_d, &JpL, q);
       c.segment<6>(6 * q) = JpL * f.J_d;
       u.segment<6>(6 * q) = JjL * rdd;
       bq.segment<6>(6 * q) = JjL * f.J_d;
       sdd += f.J_d.dot(lam.asDiagonal() * rdd);
-      any = true;
     }
     if (!any) continue;
     // A stereo factor has no pose Jacobian (nothing in c, u, bq), but its curvature moves the
@@ -179,22 +226,30 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
       PixelFactorLinearization f;
       linearizePixelFactorAt(Y, rig.translation(), K, d, s.targetPlane(e, 0)[p],
                              s.targetPlane(e, 1)[p], &f);
+      if (with_moments) moments(lam, f, mom_st[si]);
+      if (moments_only) continue;
       Eigen::Vector2d rdd;
       pixelFactorJacobianDepthDerivative(Y, rig.translation(), K.fx, K.fy, d, &rdd);
       sdd += f.J_d.dot(lam.asDiagonal() * rdd);
-      for (int ch = 0; ch < 2; ++ch)  // no pose part: L = 0, only α enters (s, N's κ term)
-        if (lam[ch] > 0) axis(lam[ch], f.J_d[ch], f.r[ch], mom_st[si]);
+      if (kappa) kappaTerms(lam, f.J_d, nullptr, 0);  // no pose part: only α enters (s, n4)
     }
+    if (moments_only) continue;
     ++out.depths;
     const Eigen::VectorXd v = u - bq * (sdd / h);  // the curvature score in edge coordinates
     Cm.row(cols) = c.transpose() / h;
     Vm.row(cols) = v.transpose() * (std::sqrt(0.5) / h);
     vsum.noalias() += v / (2.0 * h);
-    Lm.row(cols) = ell.transpose() * h;
-    Sm.row(cols) = c.transpose() * std::sqrt(sk);
-    Vk.row(cols) = v.transpose() * (0.5 * std::sqrt(l2j4) * inv_h * inv_h);
+    if (kappa) {
+      Lm.row(cols) = ell.transpose() * h;
+      Sm.row(cols) = c.transpose() * std::sqrt(sk);
+      Vk.row(cols) = v.transpose() * (0.5 * std::sqrt(n4) * inv_h * inv_h);
+    }
     ++cols;
   }
+  for (int q = 0; q < E; ++q) out.moments.emplace_back(edges[q].edge, mom[q]);
+  for (std::size_t si = 0; si < stereo.size(); ++si)
+    out.moments.emplace_back(stereo[si], mom_st[si]);
+  if (moments_only) return out;
   const int m6 = 6 * E, kept = static_cast<int>(cols);
   // Σ over the kept depths of row rowᵀ, symmetric: gemmNT writes the row-major lower triangle
   // (Eigen's upper one), mirrored below.
@@ -213,7 +268,8 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     out.M.noalias() += G * A[q] * G.transpose();
   }
   out.M = 0.5 * (out.M + out.M.transpose()).eval();
-  // The κ terms per unit γ₂.
+  if (!kappa) return out;
+  // The κ terms.
   const Eigen::MatrixXd Sk = gram(Sm), Vkk = gram(Vk);
   Eigen::MatrixXd X = Eigen::MatrixXd::Zero(m6, m6);
   kernel::gemmNT(m6, m6, kept, Lm.data(), P, Cm.data(), P, X.data(), m6);  // row-major Σ ℓ cᵀ
@@ -224,16 +280,50 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   out.Mk.noalias() = Gamma * Ke * Gamma.transpose();
   out.Mk = 0.5 * (out.Mk + out.Mk.transpose()).eval();
   out.Nk.noalias() = Gamma * Vkk * Gamma.transpose();
-  for (int q = 0; q < E; ++q) out.moments.emplace_back(edges[q].edge, mom[q]);
-  for (std::size_t si = 0; si < stereo.size(); ++si)
-    out.moments.emplace_back(stereo[si], mom_st[si]);
+  return out;
+}
+
+/// γ₂ (each edge's m4 / m2², pooled by rows, minus 3) and γ_xy (each edge's E[z_x² z_y²] / m2² −
+/// 1 − 2ρ², ρ the axes' correlation, pooled by pairs), both clamped at 0; edges with fewer than
+/// 8 rows or pairs are left out.
+Cumulants pooledCumulants(const std::vector<EdgeMoments>& edge_moments) {
+  Cumulants c;
+  double rows = 0, ratio = 0, pairs = 0, joint = 0;
+  for (const EdgeMoments& m : edge_moments) {
+    if (m.rows < 8 || !(m.s2 > 0)) continue;
+    const double m2 = m.s2 / m.rows, m4 = m.s4 / m.rows;
+    ratio += m.rows * m4 / (m2 * m2);
+    rows += m.rows;
+    if (m.pairs < 8) continue;
+    const double rho = m.cxy / m.pairs / m2;
+    joint += m.pairs * (m.sxy / m.pairs / (m2 * m2) - 1.0 - 2.0 * rho * rho);
+    pairs += m.pairs;
+  }
+  if (rows > 0) c.gamma2 = std::max(0.0, ratio / rows - 3.0);
+  if (pairs > 0) c.gamma_xy = std::max(0.0, joint / pairs);
+  return c;
+}
+
+/// The moments of every edge, from the sources' terms (in edge order).
+std::vector<EdgeMoments> edgeMoments(const std::vector<SourceTerms>& per, int num_edges) {
+  std::vector<EdgeMoments> out(static_cast<std::size_t>(num_edges));
+  for (const SourceTerms& st : per)
+    for (const auto& [e, m] : st.moments) {
+      EdgeMoments& a = out[static_cast<std::size_t>(e)];
+      a.rows += m.rows;
+      a.s2 += m.s2;
+      a.s4 += m.s4;
+      a.pairs += m.pairs;
+      a.sxy += m.sxy;
+      a.cxy += m.cxy;
+    }
   return out;
 }
 
 }  // namespace
 
 DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
-                                const DbaNormalEquations& ne) {
+                                const DbaNormalEquations& ne, bool fourth_cumulants) {
   const int n = static_cast<int>(ne.keyframes.size());
   DepthNoiseTerms out;
   out.M = Eigen::MatrixXd::Zero(6 * n, 6 * n);
@@ -242,8 +332,22 @@ DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
   out.M_kurtosis = Eigen::MatrixXd::Zero(6 * n, 6 * n);
   out.N_kurtosis = Eigen::MatrixXd::Zero(6 * n, 6 * n);
   std::vector<SourceTerms> per(ne.depths.size());
-  parallelFor(ne.depths.size(),
-              [&](std::size_t i) { per[i] = sourceTerms(s, o, ne, ne.depths[i]); });
+  // The cumulants first (a pass over the factors' residuals only), so that the κ terms are
+  // formed once with them: per unit γ₂ and γ_xy they would be twice the products.
+  Cumulants kc;
+  std::vector<EdgeMoments> moments;
+  if (fourth_cumulants) {
+    parallelFor(ne.depths.size(),
+                [&](std::size_t i) { per[i] = sourceTerms(s, o, ne, ne.depths[i], nullptr); });
+    moments = edgeMoments(per, s.numEdges());
+    kc = pooledCumulants(moments);
+  }
+  // (The second pass takes the moments only when there was no first.)
+  parallelFor(ne.depths.size(), [&](std::size_t i) {
+    per[i] = sourceTerms(s, o, ne, ne.depths[i], &kc, !fourth_cumulants);
+  });
+  if (!fourth_cumulants) moments = edgeMoments(per, s.numEdges());
+  const bool kappa = kc.any();
   for (std::size_t i = 0; i < per.size(); ++i) {
     const std::vector<int>& touched = ne.depths[i].touched;
     const int T = static_cast<int>(touched.size());
@@ -252,6 +356,7 @@ DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
       for (int b = 0; b < T; ++b) {
         out.M.block<6, 6>(6 * touched[a], 6 * touched[b]) += per[i].M.block<6, 6>(6 * a, 6 * b);
         out.N.block<6, 6>(6 * touched[a], 6 * touched[b]) += per[i].N.block<6, 6>(6 * a, 6 * b);
+        if (!kappa) continue;
         out.M_kurtosis.block<6, 6>(6 * touched[a], 6 * touched[b]) +=
             per[i].Mk.block<6, 6>(6 * a, 6 * b);
         out.N_kurtosis.block<6, 6>(6 * touched[a], 6 * touched[b]) +=
@@ -260,22 +365,10 @@ DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
     }
     out.depths += per[i].depths;
   }
-  // γ₂ pooled over the edges (each edge's own scale: m4 / m2²), in edge order.
-  std::vector<EdgeMoments> edge_moments(s.numEdges());
-  for (const SourceTerms& st : per)
-    for (const auto& [e, m] : st.moments) {
-      edge_moments[e].rows += m.rows;
-      edge_moments[e].s2 += m.s2;
-      edge_moments[e].s4 += m.s4;
-    }
-  double rows = 0, ratio = 0;
-  for (const EdgeMoments& m : edge_moments) {
-    if (m.rows < 8 || !(m.s2 > 0)) continue;
-    const double m2 = m.s2 / m.rows, m4 = m.s4 / m.rows;
-    ratio += m.rows * m4 / (m2 * m2);
-    rows += m.rows;
-  }
-  if (rows > 0) out.kurtosis = std::max(0.0, ratio / rows - 3.0);
+  // The estimates are reported either way (from the first pass, or without it the second's).
+  const Cumulants est = pooledCumulants(moments);
+  out.kurtosis = est.gamma2;
+  out.cross_kurtosis = est.gamma_xy;
   return out;
 }
 

@@ -1392,15 +1392,15 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     const std::vector<double> white_factors = whiteFactors(cal), infl = cal.inflations();
     Snapshot si = inflateWeights(s, white_factors);
     DenseModel m = buildModel(si, oc, true);
-    const DepthNoiseTerms dn = depthNoiseTerms(si, oc, m.ne);
+    const DepthNoiseTerms dn = depthNoiseTerms(si, oc, m.ne, cal.depth_noise_kurtosis);
     const Eigen::MatrixXd Mr = m.basis.transpose() * dn.M * m.basis;
     Eigen::MatrixXd Nr = m.basis.transpose() * dn.N * m.basis;
-    // The variance's fourth-cumulant share (heavy tails; depth_noise.h): in M + N only, H keeps
-    // the Gaussian M.
+    // The variance's fourth-cumulant share (heavy tails: each row's, and the two axes' of a
+    // factor jointly; depth_noise.h): in M + N only, H keeps the Gaussian M.
     Eigen::MatrixXd Mv = Mr;
-    if (cal.depth_noise_kurtosis && dn.kurtosis > 0) {
-      Mv += dn.kurtosis * (m.basis.transpose() * dn.M_kurtosis * m.basis);
-      Nr += dn.kurtosis * (m.basis.transpose() * dn.N_kurtosis * m.basis);
+    if (cal.depth_noise_kurtosis) {
+      Mv += m.basis.transpose() * dn.M_kurtosis * m.basis;
+      Nr += m.basis.transpose() * dn.N_kurtosis * m.basis;
     }
     // The information at the true depths, H = E[S(d̂)] − M, inverted; the score's variance
     // S + M + N around it (a sandwich). In S's whitened coordinates L⁻¹ M L⁻ᵀ = Q diag(ρ) Qᵀ
@@ -1447,6 +1447,7 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     const Eigen::MatrixXd term = Sigma1 + Sigma1 * (Mv + Nr) * Sigma1 - m.Sigma_r;
     if (V.trace() > 0) summary.depth_noise_share = term.trace() / V.trace();
     summary.depth_noise_kurtosis = cal.depth_noise_kurtosis ? dn.kurtosis : 0.0;
+    summary.depth_noise_cross_kurtosis = cal.depth_noise_kurtosis ? dn.cross_kurtosis : 0.0;
     V += term;
     V = 0.5 * (V + V.transpose()).eval();
     so.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));

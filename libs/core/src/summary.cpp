@@ -63,7 +63,8 @@ std::string CovarianceSummary::full() const {
   if (self_calibration.depth_noise_share > 0)
     os << "depths' 2nd-order term   +" << 100 * self_calibration.depth_noise_share
        << " % on the calibrated trace (residual excess kurtosis "
-       << self_calibration.depth_noise_kurtosis << ", largest depth share of a direction "
+       << self_calibration.depth_noise_kurtosis << ", joint across the flow axes "
+       << self_calibration.depth_noise_cross_kurtosis << ", largest depth share of a direction "
        << self_calibration.depth_noise_max_rho << ")\n";
   return os.str();
 }

@@ -154,8 +154,8 @@ struct SelfCalibrationOptions {
   /// On by default: held out, it brings white 2x and the low-SNR scene inside their regions and
   /// moves no other source out (README).
   bool depth_noise = true;
-  /// With depth_noise: the term's fourth-cumulant share, from the residuals' excess kurtosis
-  /// (heavy-tailed flow, outliers; depth_noise.h).
+  /// With depth_noise: the term's fourth-cumulant share, from the residuals' excess kurtosis and
+  /// the two flow axes' joint fourth cumulant (heavy-tailed flow, outliers; depth_noise.h).
   bool depth_noise_kurtosis = true;
   double min_inflation = 1e-9;  ///< inflations are clamped to [min, max]
   double max_inflation = 1e9;

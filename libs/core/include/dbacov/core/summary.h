@@ -26,9 +26,11 @@ struct SelfCalibrationSummary {
   /// exceed 1); 0 when it was not applied (depth_noise off, or the bootstrap).
   double depth_noise_share = 0;
   /// The term's inputs: the residuals' excess kurtosis γ₂ it used (0: Gaussian tails, or not
-  /// applied) and the largest share ρ of a direction's information the depths' noise takes
-  /// (beyond 0.9 the second-order expansion holds it at 0.9; self_calibration.cpp).
+  /// applied), the two flow axes' joint fourth cumulant γ_xy (depth_noise.h; 0 likewise) and
+  /// the largest share ρ of a direction's information the depths' noise takes (beyond 0.9 the
+  /// second-order expansion holds it at 0.9; self_calibration.cpp).
   double depth_noise_kurtosis = 0;
+  double depth_noise_cross_kurtosis = 0;
   double depth_noise_max_rho = 0;
   double sensor_depth_scale = 1;  ///< RGB-D: the sensor readings' variance factor (1: none)
 };

@@ -20,15 +20,24 @@
 // over-confidence where they are not (white noise at 2×, the low-SNR scene).
 //
 // Heavy tails. M and N above hold for Gaussian noise, where δ_k and P⊥ε are independent. For
-// independent rows with fourth cumulant κ_f = γ₂ σ_f⁴ (γ₂ the excess kurtosis) they are only
-// uncorrelated, and the two variances gain
-//   M_γ = γ₂ Σ_k Σ_f (J_d,f² / h_k²) β_f β_fᵀ,   β_f = Λ_f J'_f − a_k Λ_f J_d,f / h_k (per axis),
-//   N_γ = γ₂ Σ_k (¼ Σ_f Λ_f² J_d,f⁴ / h_k⁴) g_k g_kᵀ,
-// (Var(δ P⊥ε) and Var(δ²) have a κ term each), while H = S − M keeps its Gaussian form (E[S(d̂)]
-// needs only Var δ). γ₂ is estimated from the standardized residuals z_f = √Λ_f r_f /
-// √(1 − Λ_f J_d,f² / h_k), per edge (so that different edge scales are no kurtosis) and pooled.
-// An outlier pixel moves its depth far, and its depth moves the poses' Jacobians: this is what
-// the residual energy alone does not see.
+// rows with fourth cumulants they are only uncorrelated. With δ_k = Σ_f α_f ε_f
+// (α_f = Λ_f J_d,f / h_k) and the J' term Σ_f β_f ε_f (β_f = Λ_f J'_f − α_f a_k), the variances
+// gain the cumulant parts of E[δ² (Σβε)(Σβε)ᵀ] and of ¼ E[δ⁴]:
+//   M_κ = Σ_k Σ_{f,g,h,l} cum(ε_f, ε_g, ε_h, ε_l) α_f α_g β_h β_lᵀ,
+//   N_κ = Σ_k ¼ (Σ_{f,g,h,l} cum(ε_f, ε_g, ε_h, ε_l) α_f α_g α_h α_l) g_k g_kᵀ,
+// over the rows that have a joint fourth cumulant. Two kinds are estimated:
+//  - a row with itself, κ_f = γ₂ / Λ_f² (γ₂ the excess kurtosis): M gains γ₂ (J_d,f² / h²) β_f β_fᵀ
+//    and N gains γ₂ ¼ Λ_f² J_d,f⁴ / h⁴ g_k g_kᵀ;
+//  - the two axes of one factor, cum(x, x, y, y) = γ_xy / (Λ_x Λ_y): a wrong match moves both
+//    components of the flow together (for a scale mixture ε = s z, γ_xy = γ₂ / 3). M gains
+//    γ_xy [Λ_y J_d,y² β_x β_xᵀ / Λ_x + Λ_x J_d,x² β_y β_yᵀ / Λ_y
+//          + 2 J_d,x J_d,y (β_x β_yᵀ + β_y β_xᵀ)] / h²
+//    and N gains γ_xy ¼ · 6 Λ_x Λ_y J_d,x² J_d,y² / h⁴ g_k g_kᵀ.
+// H = S − M keeps its Gaussian form (E[S(d̂)] needs only Var δ). The cumulants come from the
+// standardized residuals z_f = √Λ_f r_f / √(1 − Λ_f J_d,f² / h_k), per edge (so that different
+// edge scales are no kurtosis) and pooled: γ₂ = m4 / m2² − 3, γ_xy = E[z_x² z_y²] / m2² − 1 − 2ρ²
+// (ρ the axes' correlation). An outlier pixel moves its depth far, and its depth moves the poses'
+// Jacobians: this is what the residual energy alone does not see.
 #pragma once
 
 #include <Eigen/Core>
@@ -52,17 +61,21 @@ struct DepthNoiseTerms {
   /// E[U] of the curvature term, Σ_k −g_k / (2 h_k): S⁻¹ of it is the O(σ²) bias of the poses.
   Eigen::VectorXd bias_score;
   std::size_t depths = 0;  ///< kept depths summed over
-  /// M_γ / γ₂ and N_γ / γ₂ (6n × 6n, symmetric PSD): the fourth-cumulant terms per unit excess
-  /// kurtosis.
+  /// M_κ and N_κ (6n × 6n, symmetric PSD): the fourth-cumulant terms at the estimated γ₂ and
+  /// γ_xy (zero when both are 0, or without fourth_cumulants).
   Eigen::MatrixXd M_kurtosis, N_kurtosis;
   /// γ₂: the standardized residuals' excess kurtosis, per edge with at least 8 rows, pooled
   /// weighted by rows; clamped at 0 (lighter tails than Gaussian are not credited).
   double kurtosis = 0;
+  /// γ_xy: the two axes' joint fourth cumulant, E[z_x² z_y²] / m2² − 1 − 2ρ² per edge with at least
+  /// 8 factors with both axes, pooled weighted by them; clamped at 0.
+  double cross_kurtosis = 0;
 };
 
 /// The terms for the snapshot's weights (weight_scale · w) at its state. `ne` must be the
 /// linearization of the same snapshot and options with keep_depth_terms.
+/// fourth_cumulants: form M_κ and N_κ (γ₂ and γ_xy are estimated and reported either way).
 DepthNoiseTerms depthNoiseTerms(const Snapshot& snapshot, const DbaOptions& options,
-                                const DbaNormalEquations& ne);
+                                const DbaNormalEquations& ne, bool fourth_cumulants = true);
 
 }  // namespace dbacov
