@@ -165,8 +165,9 @@ std::pair<double, double> expectTermsMatchDenseReference(const Snapshot& s, cons
       const Eigen::VectorXd g = A.transpose() * WP * r2;
       N += g * g.transpose() / (2 * h * h);
       bias -= g / (2 * h);
-      // Fourth cumulants κ_f = γ₂/λ_f² per flow row: Var(δ·J'ᵀWP⊥ε) gains Σ κ α² β βᵀ and
-      // Var(½δ²) gains ¼ Σ κ α⁴, with δ = Σ α_f ε_f and J'ᵀWP⊥ε = Σ β_f ε_f.
+      // Fourth cumulants (per flow row γ₂/λ_f², and the two axes of one factor jointly
+      // γ_xy/(λ_x λ_y)): Var(δ·J'ᵀWP⊥ε) gains Σ cum α α β βᵀ and Var(½δ²) gains ¼ Σ cum α⁴,
+      // with δ = Σ α_f ε_f and J'ᵀWP⊥ε = Σ β_f ε_f.
       const Eigen::VectorXd a = Ap.transpose() * (w.cwiseProduct(jd));
       // The general sums over every (f, g, h, l) of the depth's rows with the cumulant per unit
       // γ₂ (f = g = h = l, a flow row) and per unit γ_xy (two and two of the x and y rows of
@@ -240,7 +241,7 @@ std::pair<double, double> expectTermsMatchDenseReference(const Snapshot& s, cons
     pairs += mo[3];
   }
   const double kurtosis = std::max(0.0, ratio / rows - 3.0);
-  const double cross = pairs > 0 ? std::max(0.0, joint / pairs) : 0.0;
+  const double cross = pairs > 0 ? std::clamp(joint / pairs, 0.0, kurtosis) : 0.0;
   const Eigen::MatrixXd MK = kurtosis * Mk + cross * Mx, NK = kurtosis * Nk + cross * Nx;
   EXPECT_GT(M.norm(), 0);
   EXPECT_GT(Mk.norm(), 0);
@@ -357,8 +358,8 @@ Eigen::MatrixXd freeJoint(const DbaCovariance& c, std::vector<int>* free) {
 /// the white factors; score: a model beyond them; nuisance: its own reduced covariance), the
 /// covariance with the term minus the one without is Σ₁ + Σ₁(M + N)Σ₁ − Σ_w, written here from
 /// its definition on the white-inflated snapshot: Σ_w its joint covariance from the sparse query
-/// API, Σ₁ = (Σ_w⁻¹ − M)⁻¹, M and N (and their κ terms times γ₂) from depthNoiseTerms (checked
-/// above) on the free keyframes.
+/// API, Σ₁ = (Σ_w⁻¹ − M)⁻¹, M and N (and their κ terms, at the estimated γ₂ and γ_xy) from
+/// depthNoiseTerms (checked above) on the free keyframes.
 TEST(DepthNoise, CalibratedCovarianceAddsTheTermToEachMethod) {
   sim::ScenarioConfig cfg = scene(8, 24, 32, 100.0);
   cfg.noise.outlier_fraction = 0.02;  // heavy tails: the κ share is not 0

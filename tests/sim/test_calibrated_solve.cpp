@@ -320,8 +320,8 @@ TEST(CalibratedSolve, AScaleLeftToNegligibleSensorDepthsIsANamedNumericalError) 
     ADD_FAILURE() << "expected a NumericalError";
   } catch (const NumericalError& e) {
     const std::string what = e.what();
-    EXPECT_EQ(what.rfind("the reduced information matrix S is not positive definite at the "
-                         "self-calibration's weights (breakdown at keyframe ",
+    EXPECT_EQ(what.rfind("the reduced information matrix S is not positive definite in the "
+                         "self-calibration (breakdown at keyframe ",
                          0),
               0u)
         << what;

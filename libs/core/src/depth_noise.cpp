@@ -143,17 +143,19 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     const auto moments = [&](const Eigen::Vector2d& lam, const PixelFactorLinearization& f,
                              EdgeMoments& m) {
       double z[2] = {0.0, 0.0};
+      bool measured[2] = {false, false};
       for (int ch = 0; ch < 2; ++ch) {
         if (!(lam[ch] > 0)) continue;
         const double lev = lam[ch] * f.J_d[ch] * f.J_d[ch] * inv_h;
         if (!(lev < 0.999)) continue;
+        measured[ch] = true;
         z[ch] = std::sqrt(lam[ch] / (1.0 - lev)) * f.r[ch];
         const double z2 = z[ch] * z[ch];
         m.rows += 1;
         m.s2 += z2;
         m.s4 += z2 * z2;
       }
-      if (z[0] != 0 && z[1] != 0) {
+      if (measured[0] && measured[1]) {
         m.pairs += 1;
         m.sxy += z[0] * z[0] * z[1] * z[1];
         m.cxy += z[0] * z[1];
@@ -284,8 +286,8 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
 }
 
 /// γ₂ (each edge's m4 / m2², pooled by rows, minus 3) and γ_xy (each edge's E[z_x² z_y²] / m2² −
-/// 1 − 2ρ², ρ the axes' correlation, pooled by pairs), both clamped at 0; edges with fewer than
-/// 8 rows or pairs are left out.
+/// 1 − 2ρ², ρ the axes' correlation, pooled by pairs), clamped to [0, ∞) and [0, γ₂]; edges with
+/// fewer than 8 rows or pairs are left out.
 Cumulants pooledCumulants(const std::vector<EdgeMoments>& edge_moments) {
   Cumulants c;
   double rows = 0, ratio = 0, pairs = 0, joint = 0;
@@ -300,7 +302,11 @@ Cumulants pooledCumulants(const std::vector<EdgeMoments>& edge_moments) {
     pairs += m.pairs;
   }
   if (rows > 0) c.gamma2 = std::max(0.0, ratio / rows - 3.0);
-  if (pairs > 0) c.gamma_xy = std::max(0.0, joint / pairs);
+  // At most γ₂: the per-factor 2 × 2 weights Ω are positive semi-definite only for
+  // γ_xy <= γ₂ (a scale mixture has γ₂ / 3); above, M_κ could be indefinite. (γ_xy's estimate
+  // has a small positive bias from the depth's own coupling of the two axes; with γ₂ at 0,
+  // Gaussian noise, it is held at 0 here.)
+  if (pairs > 0) c.gamma_xy = std::clamp(joint / pairs, 0.0, c.gamma2);
   return c;
 }
 

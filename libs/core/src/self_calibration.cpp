@@ -117,8 +117,7 @@ DenseModel buildModel(const Snapshot& s, const DbaOptions& o, bool keep_depth_te
       }
       throw NumericalError(
           // (no source prefix: the callers name the snapshot, as for the covariance's own)
-          "the reduced information matrix S is not positive definite at the self-calibration's "
-          "weights" +
+          "the reduced information matrix S is not positive definite in the self-calibration" +
               (kf.empty() ? std::string() : " (breakdown at keyframe " + joinKeyframes(kf) + ")") +
               ": some motion is unobservable (degenerate geometry, too few weighted pixels, a "
               "gauge that does not fix every DoF, or a scale fixed only by sensor depths whose "

@@ -68,7 +68,8 @@ struct DepthNoiseTerms {
   /// weighted by rows; clamped at 0 (lighter tails than Gaussian are not credited).
   double kurtosis = 0;
   /// γ_xy: the two axes' joint fourth cumulant, E[z_x² z_y²] / m2² − 1 − 2ρ² per edge with at least
-  /// 8 factors with both axes, pooled weighted by them; clamped at 0.
+  /// 8 factors with both axes, pooled weighted by them; clamped to [0, γ₂] (M_κ is PSD only for
+  /// γ_xy <= γ₂).
   double cross_kurtosis = 0;
 };
 
