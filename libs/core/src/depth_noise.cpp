@@ -306,7 +306,9 @@ Cumulants pooledCumulants(const std::vector<EdgeMoments>& edge_moments) {
   // γ_xy <= γ₂ (a scale mixture has γ₂ / 3); above, M_κ could be indefinite. (γ_xy's estimate
   // has a small positive bias from the depth's own coupling of the two axes; with γ₂ at 0,
   // Gaussian noise, it is held at 0 here.)
-  if (pairs > 0) c.gamma_xy = std::clamp(joint / pairs, 0.0, c.gamma2);
+  // (A non-finite estimate, which finite residuals cannot give, counts as none.)
+  if (pairs > 0 && std::isfinite(joint / pairs))
+    c.gamma_xy = std::clamp(joint / pairs, 0.0, c.gamma2);
   return c;
 }
 
