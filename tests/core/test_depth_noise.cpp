@@ -180,18 +180,18 @@ std::pair<double, double> expectTermsMatchDenseReference(const Snapshot& s, cons
         const double lev = w[r] * jd[r] * jd[r] / h;
         if (edge_of[r] >= 0 && lev < 0.999) z[r] = std::sqrt(w[r] / (1 - lev)) * res[r];
       }
-      const auto same_factor = [&](int f, int g) {
-        return edge_of[f] >= 0 && edge_of[f] == edge_of[g] &&
-               (f == g || f == g + 1 || g == f + 1) && (f == g || axis_of[f] != axis_of[g]);
+      const auto same_factor = [&](int f, int f2) {
+        return edge_of[f] >= 0 && edge_of[f] == edge_of[f2] &&
+               (f == f2 || f == f2 + 1 || f2 == f + 1) && (f == f2 || axis_of[f] != axis_of[f2]);
       };
-      const auto cum = [&](int f, int g, int hh, int l, bool cross) {
-        const int idx[4] = {f, g, hh, l};
+      const auto cum = [&](int f, int f2, int hh, int l, bool cross) {
+        const int idx[4] = {f, f2, hh, l};
         for (int i = 1; i < 4; ++i)
           if (!same_factor(f, idx[i])) return 0.0;
         int nx = 0;
         for (int i : idx) nx += axis_of[i] == 0;
         if (!cross)
-          return nx == 0 || nx == 4 ? (f == g && g == hh && hh == l ? 1.0 / (w[f] * w[f]) : 0.0)
+          return nx == 0 || nx == 4 ? (f == f2 && f2 == hh && hh == l ? 1.0 / (w[f] * w[f]) : 0.0)
                                     : 0.0;
         if (nx != 2) return 0.0;
         double lx = 0, ly = 0;

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "dbacov/core/covariance.h"
 #include "dbacov/core/errors.h"
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/sim/calibrated_solve.h"
@@ -330,6 +331,16 @@ TEST(CalibratedSolve, AScaleLeftToNegligibleSensorDepthsIsANamedNumericalError) 
         << what;
     ASSERT_EQ(e.keyframes().size(), 1u);
     EXPECT_GT(e.keyframes()[0], 0) << "keyframe 0 is held by the gauge";
+    // The same keyframe as the plain covariance's own dense factorization names (both find the
+    // first bad pivot of the same reduced S).
+    CovarianceOptions dense;
+    dense.kind = SolverKind::Dense;
+    try {
+      (void)DbaCovariance(s, o, dense);
+      ADD_FAILURE() << "the plain covariance factorized the same S";
+    } catch (const NumericalError& plain) {
+      EXPECT_EQ(plain.keyframes(), e.keyframes()) << plain.what();
+    }
   }
 }
 

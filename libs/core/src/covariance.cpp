@@ -141,10 +141,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
     S_reduced = Eigen::SparseMatrix<double>();
   } catch (const FactorizationError& e) {
     std::vector<int> kf;
-    if (e.column() >= 0) {
-      const auto it = std::upper_bound(m.gauge.offset.begin(), m.gauge.offset.end(), e.column());
-      kf.push_back(m.ne.keyframes[it - m.gauge.offset.begin() - 1]);
-    }
+    if (e.column() >= 0) kf.push_back(m.ne.keyframes[m.gauge.slotOfColumn(e.column())]);
     throw NumericalError(
         "the reduced information matrix S is not positive definite" +
             (kf.empty() ? std::string() : " (breakdown at keyframe " + joinKeyframes(kf) + ")") +

@@ -37,25 +37,24 @@ class DenseMarginalSolver final : public MarginalSolver {
   std::string name() const override { return "dense"; }
 
  private:
-  /// First column whose Cholesky pivot is not positive enough (unpivoted, left-looking).
-  static int firstBadPivot(const Eigen::MatrixXd& S) {
-    const int n = static_cast<int>(S.rows());
-    Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, n);
-    for (int j = 0; j < n; ++j) {
-      const double pivot = S(j, j) - L.row(j).head(j).squaredNorm();
-      if (!(pivot > kMinRelativePivot * S(j, j))) return j;
-      L(j, j) = std::sqrt(pivot);
-      for (int i = j + 1; i < n; ++i)
-        L(i, j) = (S(i, j) - L.row(i).head(j).dot(L.row(j).head(j))) / L(j, j);
-    }
-    return -1;
-  }
-
   Eigen::LLT<Eigen::MatrixXd> llt_;
   Eigen::MatrixXd Sigma_;
 };
 
 }  // namespace
+
+int firstBadPivot(const Eigen::MatrixXd& S) {
+  const int n = static_cast<int>(S.rows());
+  Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, n);
+  for (int j = 0; j < n; ++j) {
+    const double pivot = S(j, j) - L.row(j).head(j).squaredNorm();
+    if (!(pivot > kMinRelativePivot * S(j, j))) return j;
+    L(j, j) = std::sqrt(pivot);
+    for (int i = j + 1; i < n; ++i)
+      L(i, j) = (S(i, j) - L.row(i).head(j).dot(L.row(j).head(j))) / L(j, j);
+  }
+  return -1;
+}
 
 std::unique_ptr<MarginalSolver> makeDenseMarginalSolver() {
   return std::make_unique<DenseMarginalSolver>();

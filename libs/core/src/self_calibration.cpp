@@ -20,6 +20,7 @@
 #include "dbacov/core/errors.h"
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/linearization.h"
+#include "dbacov/core/marginal_solver.h"
 #include "dbacov/core/nuisance_basis.h"
 #include "dbacov/core/parallel.h"
 #include "depth_only_factors.h"
@@ -106,15 +107,10 @@ DenseModel buildModel(const Snapshot& s, const DbaOptions& o, bool keep_depth_te
       throw NumericalError(s.source + ": the information matrix has non-finite entries", {});
     const Eigen::LLT<Eigen::MatrixXd> llt(m.Sr);
     if (llt.info() != Eigen::Success) {
-      // Name the keyframe where it breaks down, as the covariance's own factorization does: the
-      // first whose leading block (the free DoF up to and including its own) is not definite.
+      // Name the keyframe where it breaks down, as the covariance's own factorization does.
       std::vector<int> kf;
-      for (int a = 0; a < n && kf.empty(); ++a) {
-        const int k = m.gauge.offset[a] + m.gauge.dimOf(a);
-        if (m.gauge.dimOf(a) > 0 &&
-            Eigen::LLT<Eigen::MatrixXd>(m.Sr.topLeftCorner(k, k)).info() != Eigen::Success)
-          kf.push_back(m.ne.keyframes[a]);
-      }
+      if (const int col = firstBadPivot(m.Sr); col >= 0)
+        kf.push_back(m.ne.keyframes[m.gauge.slotOfColumn(col)]);
       throw NumericalError(
           // (no source prefix: the callers name the snapshot, as for the covariance's own)
           "the reduced information matrix S is not positive definite in the self-calibration" +

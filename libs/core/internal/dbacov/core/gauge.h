@@ -17,6 +17,7 @@
 //           changes by uᵀ R_b ρ_b: the removed direction is [R_bᵀ u; 0] and m_b = 5.
 #pragma once
 
+#include <algorithm>
 #include <vector>
 
 #include <Eigen/Core>
@@ -38,6 +39,11 @@ struct GaugeParameterization {
 
   int dim() const { return offset.back(); }
   int dimOf(int slot) const { return offset[slot + 1] - offset[slot]; }
+  /// The slot whose reduced coordinates hold column `col` (0 <= col < dim()).
+  int slotOfColumn(int col) const {
+    return static_cast<int>(std::upper_bound(offset.begin(), offset.end(), col) - offset.begin()) -
+           1;
+  }
 };
 
 /// Builds the gauge for the graph keyframes `keyframes` (slot → keyframe) of snapshot `s`.

@@ -30,6 +30,11 @@ class FactorizationError : public std::runtime_error {
 /// would be round-off. Both solvers report it as a FactorizationError.
 constexpr double kMinRelativePivot = 1e-12;
 
+/// The first column of the dense symmetric S whose Cholesky pivot (unpivoted, left-looking) is
+/// not above kMinRelativePivot · S_jj, or −1: where a factorization that failed broke down (Eigen's
+/// LLT says that it failed, not where).
+int firstBadPivot(const Eigen::MatrixXd& S);
+
 class MarginalSolver {
  public:
   virtual ~MarginalSolver() = default;
