@@ -13,6 +13,7 @@
 
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/dba_factor.h"
+#include "dbacov/core/errors.h"
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/nuisance_basis.h"
@@ -248,6 +249,27 @@ void expectRedundancyScoreAndSandwichMatchDenseReference() {
     const Matrix6d got = cov.marginal(kf[a]);
     const Eigen::MatrixXd want = expected.block<6, 6>(6 * a, 6 * a);
     EXPECT_LE((got - want).norm(), 1e-6 * (1e-12 + want.norm())) << "keyframe " << kf[a];
+  }
+}
+
+// Fewer clusters than free pose DoF: a NumericalError that says so, without the snapshot's name
+// (the callers add it: dba-covariance writes "FILE (snapshot N): ...", and it was doubled).
+TEST(SelfCalibration, SandwichWithTooFewClustersSaysSoOnce) {
+  sim::SyntheticSnapshotConfig cfg = testing::gridConfig(5, 6, 6, 8);
+  cfg.covisibility.edge_radius = 1;
+  Snapshot s = sim::generateSyntheticSnapshot(cfg).snapshot;
+  s.source = "tiny.npz";
+  const DbaOptions o = testing::gaugeOptions(GaugeOptions::Type::TwoPose, 0.0, 0.0);
+  SelfCalibrationOptions c;
+  c.method = SelfCalibrationMethod::Sandwich;
+  ASSERT_LE(s.numEdges(), 24) << "the scene must have fewer edges than free DoF";
+  try {
+    (void)selfCalibrate(s, o, c);
+    ADD_FAILURE() << "expected a NumericalError";
+  } catch (const NumericalError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("the sandwich self-calibration needs more clusters", 0), 0u) << what;
+    EXPECT_EQ(what.find("tiny.npz"), std::string::npos) << what;
   }
 }
 

@@ -342,6 +342,19 @@ TEST(CalibratedSolve, AScaleLeftToNegligibleSensorDepthsIsANamedNumericalError) 
       EXPECT_EQ(plain.keyframes(), e.keyframes()) << plain.what();
     }
   }
+  // The Monte Carlo evaluation (dba-evaluate) names the snapshot the error is of, once.
+  const SelfCalibrationOptions def;
+  const SimulatedSnapshot sim = sc.simulate(0, 23);
+  try {
+    (void)evaluateSnapshot(sim, o, 0, PairSelection::Consecutive, &def);
+    ADD_FAILURE() << "expected a NumericalError";
+  } catch (const NumericalError& e) {
+    const std::string what = e.what(), name = sim.snapshot.source + " (snapshot ";
+    EXPECT_EQ(what.rfind(name, 0), 0u) << what;
+    EXPECT_EQ(what.find(sim.snapshot.source, name.size()), std::string::npos) << what;
+    EXPECT_NE(what.find("not positive definite in the self-calibration"), std::string::npos)
+        << what;
+  }
 }
 
 }  // namespace

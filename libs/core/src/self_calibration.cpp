@@ -104,7 +104,7 @@ DenseModel buildModel(const Snapshot& s, const DbaOptions& o, bool keep_depth_te
     const Eigen::MatrixXd upper(reduceSystem(m.ne.S, m.gauge));
     m.Sr = upper.selfadjointView<Eigen::Upper>();
     if (!m.Sr.allFinite())
-      throw NumericalError(s.source + ": the information matrix has non-finite entries", {});
+      throw NumericalError("the information matrix has non-finite entries (self-calibration)", {});
     const Eigen::LLT<Eigen::MatrixXd> llt(m.Sr);
     if (llt.info() != Eigen::Success) {
       // Name the keyframe where it breaks down, as the covariance's own factorization does.
@@ -1318,12 +1318,12 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
         meat.noalias() += gr * gr.transpose() / f;
       }
       if (clusters <= K)
-        throw NumericalError(s.source +
-                                 ": the sandwich self-calibration needs more clusters (edges, "
-                                 "and sources with sensor readings: " +
-                                 std::to_string(clusters) + ") than free pose DoF (" +
-                                 std::to_string(K) + ")",
-                             {});
+        // (no source prefix here or below: the callers name the snapshot)
+        throw NumericalError(
+            "the sandwich self-calibration needs more clusters (edges, "
+            "and sources with sensor readings: " +
+                std::to_string(clusters) + ") than free pose DoF (" + std::to_string(K) + ")",
+            {});
       Eigen::MatrixXd V = model.Sigma_r * meat * model.Sigma_r;
       V = 0.5 * (V + V.transpose());
       out.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(V));

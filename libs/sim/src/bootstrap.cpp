@@ -178,10 +178,11 @@ SelfCalibration runSelfCalibration(const Snapshot& s, const DbaOptions& o,
   const Eigen::MatrixXd& V = *cal.reduced_covariance;
   const Eigen::LLT<Eigen::MatrixXd> llt(V);
   if (llt.info() != Eigen::Success || V.rows() != K)
-    throw NumericalError(s.source +
-                             ": the nuisance covariance is not positive definite "
-                             "(bootstrap self-calibration)",
-                         keyframes);
+    // (no source prefix here or below: the callers name the snapshot)
+    throw NumericalError(
+        "the nuisance covariance is not positive definite "
+        "(bootstrap self-calibration)",
+        keyframes);
   const NuisanceBasis basis{c.nuisance_nodes, s.H, s.W};
   const int R = c.bootstrap_replicates;
   std::vector<Eigen::VectorXd> delta(R);
@@ -205,7 +206,7 @@ SelfCalibration runSelfCalibration(const Snapshot& s, const DbaOptions& o,
   cal.bootstrap_replicates = ok;
   cal.bootstrap_failed = R - ok;
   if (2 * ok < R)
-    throw NumericalError(s.source + ": the bootstrap self-calibration's DBA solve converged for " +
+    throw NumericalError("the bootstrap self-calibration's DBA solve converged for " +
                              std::to_string(ok) + " of " + std::to_string(R) + " replicates",
                          keyframes);
   cal.bootstrap_scale = sum / (static_cast<double>(ok) * K);

@@ -1,6 +1,7 @@
 #include "dbacov/sim/monte_carlo.h"
 
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/errors.h"
 #include "dbacov/sim/bootstrap.h"
 
 namespace dbacov::sim {
@@ -14,10 +15,19 @@ EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& sim, const DbaOption
                                    std::int64_t run, PairSelection pairs,
                                    const SelfCalibrationOptions* self_calibration) {
   const Snapshot& s = sim.snapshot;
-  const DbaCovariance cov =
-      self_calibration ? selfCalibratedCovariance(s, options, {},
-                                                  runSelfCalibration(s, options, *self_calibration))
-                       : DbaCovariance(s, options);
+  // The covariances' numerical errors do not name their snapshot (the callers do): name the run's.
+  const auto covariance = [&]() {
+    try {
+      return self_calibration
+                 ? selfCalibratedCovariance(s, options, {},
+                                            runSelfCalibration(s, options, *self_calibration))
+                 : DbaCovariance(s, options);
+    } catch (const NumericalError& e) {
+      throw NumericalError(s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what(),
+                           e.keyframes());
+    }
+  };
+  const DbaCovariance cov = covariance();
   const std::string prefix = "s" + std::to_string(s.label()) + "/";
   EvaluationSamples out;
   for (int k : cov.keyframes()) {
