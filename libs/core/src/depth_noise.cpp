@@ -84,15 +84,17 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   }
   const int E = static_cast<int>(edges.size());
   const bool moments_only = kc == nullptr, kappa = kc && kc->any();
-  out.M = Eigen::MatrixXd::Zero(6 * T, 6 * T);
-  out.N = Eigen::MatrixXd::Zero(6 * T, 6 * T);
-  out.Mk = Eigen::MatrixXd::Zero(6 * T, 6 * T);
-  out.Nk = Eigen::MatrixXd::Zero(6 * T, 6 * T);
-  out.bias = Eigen::VectorXd::Zero(6 * T);
+  // (The moments-only pass forms none of the terms: its matrices stay empty.)
+  const Eigen::Index T6 = moments_only ? 0 : 6 * T;
+  out.M = Eigen::MatrixXd::Zero(T6, T6);
+  out.N = Eigen::MatrixXd::Zero(T6, T6);
+  out.Mk = Eigen::MatrixXd::Zero(T6, T6);
+  out.Nk = Eigen::MatrixXd::Zero(T6, T6);
+  out.bias = Eigen::VectorXd::Zero(T6);
   if (E == 0) return out;
   // Γ (6T × 6E): an edge's 6 coordinates on the touched slots, source −Adᵀ, target I.
-  Eigen::MatrixXd Gamma = Eigen::MatrixXd::Zero(6 * T, 6 * E);
-  for (int q = 0; q < E; ++q) {
+  Eigen::MatrixXd Gamma = Eigen::MatrixXd::Zero(T6, moments_only ? 0 : 6 * E);
+  for (int q = 0; q < E && !moments_only; ++q) {
     Gamma.block<6, 6>(0, 6 * q) = -edges[q].Ad.transpose();
     Gamma.block<6, 6>(6 * edges[q].target, 6 * q).setIdentity();
   }
