@@ -53,39 +53,114 @@ struct SourceTerms {
   Eigen::MatrixXd M, N, Mk, Nk;
   Eigen::VectorXd bias;
   std::size_t depths = 0;
-  std::vector<std::pair<int, EdgeMoments>> moments;  ///< (edge, its moments)
 };
 
-/// One source keyframe's terms; with `kc` null only the residuals' moments (the pass that finds
-/// the cumulants before the terms are formed with them).
-SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalEquations& ne,
-                        const DepthTerms& dt, const Cumulants* kc, bool with_moments = true) {
-  SourceTerms out;
-  const int src = ne.keyframes[dt.source_slot];
-  const int T = static_cast<int>(dt.touched.size());
-  struct EdgeRef {
+/// The pixel factors of one source keyframe's edges: its edges to other keyframes (their slot
+/// among the source's touched ones, T_ji, Ad(T_ji)) and its stereo edges (src, src).
+struct SourceEdges {
+  struct Ref {
     int edge, target;
     Eigen::Matrix3d R;
     Eigen::Vector3d t;
     Matrix6d Ad;
   };
-  std::vector<EdgeRef> edges;
-  std::vector<int> stereo;  // (src, src): the fixed rig, a factor on the depth alone
+  std::vector<Ref> edges;
+  std::vector<int> stereo;  ///< (src, src): the fixed rig, a factor on the depth alone
+};
+
+SourceEdges sourceEdges(const Snapshot& s, const DbaNormalEquations& ne, const DepthTerms& dt) {
+  SourceEdges out;
+  const int src = ne.keyframes[dt.source_slot];
   const Eigen::Isometry3d T_wc_src = s.T_cw(src).inverse();
   for (int e = 0; e < s.numEdges(); ++e) {
-    if (s.ii[e] == src && s.jj[e] == src) stereo.push_back(e);
+    if (s.ii[e] == src && s.jj[e] == src) out.stereo.push_back(e);
     if (s.ii[e] != src || s.jj[e] == src) continue;
     const int slot = ne.slot_of[s.jj[e]];
     const auto it = std::find(dt.touched.begin(), dt.touched.end(), slot);
     if (slot < 0 || it == dt.touched.end()) continue;
     const Eigen::Isometry3d T_ji = s.T_cw(s.jj[e]) * T_wc_src;
-    edges.push_back({e, static_cast<int>(it - dt.touched.begin()), T_ji.linear(),
-                     T_ji.translation(), adjoint(T_ji)});
+    out.edges.push_back({e, static_cast<int>(it - dt.touched.begin()), T_ji.linear(),
+                         T_ji.translation(), adjoint(T_ji)});
   }
+  return out;
+}
+
+/// One source keyframe's residual moments, per edge (edge, its moments; the stereo edges last).
+/// Edge by edge over the kept depths, so that each edge's weight and target planes are read in
+/// order (depth by depth across every edge, the terms' order below, the planes were a stream per
+/// edge and plane). A factor's z = √Λ r / √(1 − Λ J_d² / h) per axis (the depth's leverage taken
+/// out; the poses' is small and left in), 0 where the depth takes it all. A stereo factor counts
+/// at the depths that have a factor of a pose edge too (those the terms are formed at).
+std::vector<std::pair<int, EdgeMoments>> sourceMoments(const Snapshot& s, const DbaOptions& o,
+                                                       const DbaNormalEquations& ne,
+                                                       const DepthTerms& dt) {
+  const SourceEdges se = sourceEdges(s, ne, dt);
+  const int src = ne.keyframes[dt.source_slot];
+  const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
+  const std::size_t HW = s.pixelsPerFrame(), P = dt.pixel.size();
+  const float* disps = &s.disps[static_cast<std::size_t>(src) * HW];
+  std::vector<char> any(P, 0);
+  std::vector<std::pair<int, EdgeMoments>> out;
+  const auto factor = [&](int e, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, std::size_t k,
+                          EdgeMoments& m) {
+    const int p = dt.pixel[k];
+    const double d = disps[p], inv_h = 1.0 / dt.h[k];
+    const Eigen::Vector3d Y = transferPoint(R, t, K, p % s.W, p / s.W, d);
+    if (!keepPixelFactor(o, d, Y.z())) return false;
+    const double lam[2] = {o.weight_scale * s.weightPlane(e, 0)[p],
+                           o.weight_scale * s.weightPlane(e, 1)[p]};
+    if (!(lam[0] > 0) && !(lam[1] > 0)) return false;
+    PixelFactorLinearization f;
+    linearizePixelFactorAt(Y, t, K, d, s.targetPlane(e, 0)[p], s.targetPlane(e, 1)[p], &f);
+    double z[2] = {0.0, 0.0};
+    bool measured[2] = {false, false};
+    for (int ch = 0; ch < 2; ++ch) {
+      if (!(lam[ch] > 0)) continue;
+      const double lev = lam[ch] * f.J_d[ch] * f.J_d[ch] * inv_h;
+      if (!(lev < 0.999)) continue;
+      measured[ch] = true;
+      z[ch] = std::sqrt(lam[ch] / (1.0 - lev)) * f.r[ch];
+      const double z2 = z[ch] * z[ch];
+      m.rows += 1;
+      m.s2 += z2;
+      m.s4 += z2 * z2;
+    }
+    if (measured[0] && measured[1]) {
+      m.pairs += 1;
+      m.sxy += z[0] * z[0] * z[1] * z[1];
+      m.cxy += z[0] * z[1];
+    }
+    return true;
+  };
+  for (const SourceEdges::Ref& er : se.edges) {
+    EdgeMoments m;
+    for (std::size_t k = 0; k < P; ++k)
+      if (factor(er.edge, er.R, er.t, k, m)) any[k] = 1;
+    out.emplace_back(er.edge, m);
+  }
+  if (se.stereo.empty()) return out;
+  const Eigen::Isometry3d rig = s.stereoRig();
+  for (int e : se.stereo) {
+    EdgeMoments m;
+    for (std::size_t k = 0; k < P; ++k)
+      if (any[k]) factor(e, rig.linear(), rig.translation(), k, m);
+    out.emplace_back(e, m);
+  }
+  return out;
+}
+
+/// One source keyframe's terms, with the fourth cumulants `kc` (sourceMoments' estimates).
+SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalEquations& ne,
+                        const DepthTerms& dt, const Cumulants& kc) {
+  SourceTerms out;
+  const int src = ne.keyframes[dt.source_slot];
+  const int T = static_cast<int>(dt.touched.size());
+  const SourceEdges se = sourceEdges(s, ne, dt);
+  const std::vector<SourceEdges::Ref>& edges = se.edges;
+  const std::vector<int>& stereo = se.stereo;
   const int E = static_cast<int>(edges.size());
-  const bool moments_only = kc == nullptr, kappa = kc && kc->any();
-  // (The moments-only pass forms none of the terms: its matrices stay empty.)
-  const Eigen::Index T6 = moments_only ? 0 : 6 * T;
+  const bool kappa = kc.any();
+  const Eigen::Index T6 = 6 * T;
   out.M = Eigen::MatrixXd::Zero(T6, T6);
   out.N = Eigen::MatrixXd::Zero(T6, T6);
   out.Mk = Eigen::MatrixXd::Zero(T6, T6);
@@ -93,8 +168,8 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   out.bias = Eigen::VectorXd::Zero(T6);
   if (E == 0) return out;
   // Γ (6T × 6E): an edge's 6 coordinates on the touched slots, source −Adᵀ, target I.
-  Eigen::MatrixXd Gamma = Eigen::MatrixXd::Zero(T6, moments_only ? 0 : 6 * E);
-  for (int q = 0; q < E && !moments_only; ++q) {
+  Eigen::MatrixXd Gamma = Eigen::MatrixXd::Zero(T6, 6 * E);
+  for (int q = 0; q < E; ++q) {
     Gamma.block<6, 6>(0, 6 * q) = -edges[q].Ad.transpose();
     Gamma.block<6, 6>(6 * edges[q].target, 6 * q).setIdentity();
   }
@@ -103,7 +178,6 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   const std::size_t HW = s.pixelsPerFrame();
   const float* disps = &s.disps[static_cast<std::size_t>(src) * HW];
   std::vector<Matrix6d> A(E, Matrix6d::Zero()), Ak(E, Matrix6d::Zero());
-  std::vector<EdgeMoments> mom(E), mom_st(stereo.size());
   // Per kept depth, in the edges' coordinates: c/h (the coupling of M) and v/(√2 h) (the
   // curvature score g = Γ v of N), one row each (each column contiguous over the depths), so
   // that Σ c cᵀ/h² and Σ v vᵀ/(2h²) are two symmetric products over the depths in the kernel's
@@ -112,8 +186,7 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   // The columns' stride: a multiple of 8 doubles plus 8, never a multiple of 4 KiB (with P =
   // 3072 depths it was 24 KiB, so the 6E entries one depth writes across a column-major matrix
   // all fell in one L1 set and evicted each other at every depth).
-  const Eigen::Index P =
-      moments_only ? 0 : (static_cast<Eigen::Index>(dt.pixel.size()) + 7) / 8 * 8 + 8;
+  const Eigen::Index P = (static_cast<Eigen::Index>(dt.pixel.size()) + 7) / 8 * 8 + 8;
   Eigen::MatrixXd Cm(P, 6 * E), Vm(P, 6 * E);
   // The fourth-cumulant terms (depth_noise.h): Σ_{f,g} ω_fg β_f β_gᵀ over the pairs of rows with
   // a joint fourth cumulant (a row with itself, ω_ff = γ₂ J_d,f²/h²; the two axes of one factor,
@@ -124,7 +197,7 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
   // n4 = Σ γ₂ Λ² J_d⁴ + 6 γ_xy Λ_x Λ_y J_d,x² J_d,y². Only formed when a cumulant is positive.
   const Eigen::Index Pk = kappa ? P : 0;
   Eigen::MatrixXd Lm(Pk, 6 * E), Sm(Pk, 6 * E), Vk(Pk, 6 * E);
-  const double g2 = kc ? kc->gamma2 : 0.0, gxy = kc ? kc->gamma_xy : 0.0;
+  const double g2 = kc.gamma2, gxy = kc.gamma_xy;
   Eigen::VectorXd ell(6 * E);
   Eigen::VectorXd vsum = Eigen::VectorXd::Zero(6 * E);  // Σ v / (2h)
   Eigen::VectorXd c(6 * E), u(6 * E), bq(6 * E);
@@ -140,29 +213,6 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     double sdd = 0;         // Σ J_dᵀ Λ r''
     double sk = 0, n4 = 0;  // s and n4 above
     bool any = false;
-    // One factor's residual moments: z = √Λ r / √(1 − Λ J_d² / h) per axis (the depth's leverage
-    // taken out; the poses' is small and left in), 0 where the depth takes it all.
-    const auto moments = [&](const Eigen::Vector2d& lam, const PixelFactorLinearization& f,
-                             EdgeMoments& m) {
-      double z[2] = {0.0, 0.0};
-      bool measured[2] = {false, false};
-      for (int ch = 0; ch < 2; ++ch) {
-        if (!(lam[ch] > 0)) continue;
-        const double lev = lam[ch] * f.J_d[ch] * f.J_d[ch] * inv_h;
-        if (!(lev < 0.999)) continue;
-        measured[ch] = true;
-        z[ch] = std::sqrt(lam[ch] / (1.0 - lev)) * f.r[ch];
-        const double z2 = z[ch] * z[ch];
-        m.rows += 1;
-        m.s2 += z2;
-        m.s4 += z2 * z2;
-      }
-      if (measured[0] && measured[1]) {
-        m.pairs += 1;
-        m.sxy += z[0] * z[0] * z[1] * z[1];
-        m.cxy += z[0] * z[1];
-      }
-    };
     // One factor's κ weights (above) as the 2 × 2 Ω = (ω_fg) over its two axes: s += αᵀΩα,
     // n4, and, for a factor with a pose part (L: its two axes' L_f, 6 × 2), its edge's
     // Ak += L Ω Lᵀ and ℓ += L Ω α. (An axis without weight has L_f = 0 and α_f = 0.)
@@ -191,7 +241,7 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
       ell.segment<6>(6 * q).noalias() += *L * Wa;
     };
     for (int q = 0; q < E; ++q) {
-      const EdgeRef& er = edges[q];
+      const SourceEdges::Ref& er = edges[q];
       const Eigen::Vector3d Y = transferPoint(er.R, er.t, K, x, y, d);
       if (!keepPixelFactor(o, d, Y.z())) continue;
       const double lx = o.weight_scale * s.weightPlane(er.edge, 0)[p];
@@ -201,9 +251,7 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
       PixelFactorLinearization f;
       linearizePixelFactorAt(Y, er.t, K, d, s.targetPlane(er.edge, 0)[p],
                              s.targetPlane(er.edge, 1)[p], &f);
-      if (with_moments) moments(lam, f, mom[q]);
       any = true;
-      if (moments_only) continue;
       Eigen::Vector2d rdd;
       const Eigen::Matrix<double, 2, 6> Jp =
           pixelFactorJacobianDepthDerivative(Y, er.t, K.fx, K.fy, d, &rdd);
@@ -230,14 +278,11 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
       PixelFactorLinearization f;
       linearizePixelFactorAt(Y, rig.translation(), K, d, s.targetPlane(e, 0)[p],
                              s.targetPlane(e, 1)[p], &f);
-      if (with_moments) moments(lam, f, mom_st[si]);
-      if (moments_only) continue;
       Eigen::Vector2d rdd;
       pixelFactorJacobianDepthDerivative(Y, rig.translation(), K.fx, K.fy, d, &rdd);
       sdd += f.J_d.dot(lam.asDiagonal() * rdd);
       if (kappa) kappaTerms(lam, f.J_d, nullptr, 0);  // no pose part: only α enters (s, n4)
     }
-    if (moments_only) continue;
     ++out.depths;
     const Eigen::VectorXd v = u - bq * (sdd / h);  // the curvature score in edge coordinates
     Cm.row(cols) = c.transpose() / h;
@@ -250,10 +295,6 @@ SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalE
     }
     ++cols;
   }
-  for (int q = 0; q < E; ++q) out.moments.emplace_back(edges[q].edge, mom[q]);
-  for (std::size_t si = 0; si < stereo.size(); ++si)
-    out.moments.emplace_back(stereo[si], mom_st[si]);
-  if (moments_only) return out;
   const int m6 = 6 * E, kept = static_cast<int>(cols);
   // Σ over the kept depths of row rowᵀ, symmetric: gemmNT writes the row-major lower triangle
   // (Eigen's upper one), mirrored below.
@@ -314,11 +355,12 @@ Cumulants pooledCumulants(const std::vector<EdgeMoments>& edge_moments) {
   return c;
 }
 
-/// The moments of every edge, from the sources' terms (in edge order).
-std::vector<EdgeMoments> edgeMoments(const std::vector<SourceTerms>& per, int num_edges) {
+/// The moments of every edge (in edge order), from each source's (sourceMoments).
+std::vector<EdgeMoments> edgeMoments(
+    const std::vector<std::vector<std::pair<int, EdgeMoments>>>& per, int num_edges) {
   std::vector<EdgeMoments> out(static_cast<std::size_t>(num_edges));
-  for (const SourceTerms& st : per)
-    for (const auto& [e, m] : st.moments) {
+  for (const auto& source : per)
+    for (const auto& [e, m] : source) {
       EdgeMoments& a = out[static_cast<std::size_t>(e)];
       a.rows += m.rows;
       a.s2 += m.s2;
@@ -341,22 +383,17 @@ DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
   out.bias_score = Eigen::VectorXd::Zero(6 * n);
   out.M_kurtosis = Eigen::MatrixXd::Zero(6 * n, 6 * n);
   out.N_kurtosis = Eigen::MatrixXd::Zero(6 * n, 6 * n);
-  std::vector<SourceTerms> per(ne.depths.size());
   // The cumulants first (a pass over the factors' residuals only), so that the κ terms are
-  // formed once with them: per unit γ₂ and γ_xy they would be twice the products.
-  Cumulants kc;
-  std::vector<EdgeMoments> moments;
-  if (fourth_cumulants) {
-    parallelFor(ne.depths.size(),
-                [&](std::size_t i) { per[i] = sourceTerms(s, o, ne, ne.depths[i], nullptr); });
-    moments = edgeMoments(per, s.numEdges());
-    kc = pooledCumulants(moments);
-  }
-  // (The second pass takes the moments only when there was no first.)
-  parallelFor(ne.depths.size(), [&](std::size_t i) {
-    per[i] = sourceTerms(s, o, ne, ne.depths[i], &kc, !fourth_cumulants);
-  });
-  if (!fourth_cumulants) moments = edgeMoments(per, s.numEdges());
+  // formed once with them: per unit γ₂ and γ_xy they would be twice the products. (Without the
+  // κ share they are still estimated, for the report.)
+  std::vector<std::vector<std::pair<int, EdgeMoments>>> per_moments(ne.depths.size());
+  parallelFor(ne.depths.size(),
+              [&](std::size_t i) { per_moments[i] = sourceMoments(s, o, ne, ne.depths[i]); });
+  const Cumulants est = pooledCumulants(edgeMoments(per_moments, s.numEdges()));
+  const Cumulants kc = fourth_cumulants ? est : Cumulants{};
+  std::vector<SourceTerms> per(ne.depths.size());
+  parallelFor(ne.depths.size(),
+              [&](std::size_t i) { per[i] = sourceTerms(s, o, ne, ne.depths[i], kc); });
   const bool kappa = kc.any();
   for (std::size_t i = 0; i < per.size(); ++i) {
     const std::vector<int>& touched = ne.depths[i].touched;
@@ -375,8 +412,7 @@ DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
     }
     out.depths += per[i].depths;
   }
-  // The estimates are reported either way (from the first pass, or without it the second's).
-  const Cumulants est = pooledCumulants(moments);
+  // The estimates are reported either way.
   out.kurtosis = est.gamma2;
   out.cross_kurtosis = est.gamma_xy;
   return out;
