@@ -11,6 +11,7 @@
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/kernel_isa.h"
 #include "dbacov/core/linearization.h"
+#include "dbacov/core/marginal_solver.h"
 #include "dense_reference.h"
 #include "fixtures.h"
 #include "kernel_variants.h"
@@ -184,6 +185,29 @@ INSTANTIATE_TEST_SUITE_P(Gauges, GaugeStage,
                          ::testing::Values(std::make_tuple(GaugeOptions::Type::TwoPose, 0.0),
                                            std::make_tuple(GaugeOptions::Type::TwoPose, 0.05),
                                            std::make_tuple(GaugeOptions::Type::Minimal, 0.0)));
+
+// Where a factorization broke down, as the errors name it: the column (firstBadPivot, against
+// matrices whose first bad pivot is known) and the slot that column belongs to (slots without
+// free coordinates, as a hard gauge leaves them, own no column).
+TEST(BreakdownColumn, FirstBadPivotAndItsSlot) {
+  Eigen::MatrixXd S = Eigen::MatrixXd::Identity(5, 5);
+  EXPECT_EQ(firstBadPivot(S), -1);
+  S(3, 3) = -1;  // indefinite at column 3
+  EXPECT_EQ(firstBadPivot(S), 3);
+  // Column 2 a combination of columns 0 and 1: its pivot is round-off, below the relative limit.
+  Eigen::MatrixXd A = Eigen::MatrixXd::Random(5, 5);
+  A.col(2) = A.col(0) - 2.0 * A.col(1);
+  EXPECT_EQ(firstBadPivot(A.transpose() * A), 2);
+  // Eigen's LLT fails on the same matrices.
+  EXPECT_NE(Eigen::LLT<Eigen::MatrixXd>(S).info(), Eigen::Success);
+
+  GaugeParameterization g;
+  g.offset = {0, 0, 5, 5, 11};  // slot 0 hard-fixed, slot 1 five free, slot 2 none, slot 3 six
+  EXPECT_EQ(g.slotOfColumn(0), 1);
+  EXPECT_EQ(g.slotOfColumn(4), 1);
+  EXPECT_EQ(g.slotOfColumn(5), 3);
+  EXPECT_EQ(g.slotOfColumn(10), 3);
+}
 
 TEST(OptionsBuilder, GaugeNamesTheTypeOnlyAndKeepsThePresetSigmas) {
   DbaOptionOverrides o;

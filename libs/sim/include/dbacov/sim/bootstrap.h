@@ -37,8 +37,8 @@ namespace dbacov {
 /// selfCalibrate(), and for the bootstrap method the nuisance calibration with its keyframes'
 /// marginals scaled (above): bootstrap_keyframe_scales = k_a, bootstrap_scale = the joint k,
 /// bootstrap_replicates = the replicates they are means over, bootstrap_failed = the others. Throws
-/// what selfCalibrate throws, and NumericalError naming the snapshot when fewer than half the
-/// replicates converge or the nuisance covariance is not positive definite.
+/// what selfCalibrate throws, and NumericalError when fewer than half the replicates converge or
+/// the nuisance covariance is not positive definite (its callers name the snapshot).
 SelfCalibration runSelfCalibration(const Snapshot& snapshot, const DbaOptions& options,
                                    const SelfCalibrationOptions& calibration = {},
                                    const DbaSolverOptions& solver = {});
