@@ -432,24 +432,30 @@ PYBIND11_MODULE(_dbacov, m) {
              // --self-calibrate then calibrates on that state.
              // With self_calibrate=True the solve is at the calibrated weights of the factors
              // on the depths alone (calibrated_solve.h), as dba-covariance's --converge.
-             if (sc.converge) {
-               auto solved = std::make_shared<Snapshot>(*snap);
-               if (sc.enabled) {
-                 c->reweighted = solveDbaAtCalibratedWeights(*solved, c->options);
-                 c->solve = c->reweighted->solver;
-                 c->options = c->reweighted->options;
-               } else {
-                 c->solve = solveDba(*solved, c->options);
+             // The engine's numerical errors name no snapshot (their callers do, as
+             // dba-covariance's "FILE (snapshot N): ..."): this one's name first.
+             try {
+               if (sc.converge) {
+                 auto solved = std::make_shared<Snapshot>(*snap);
+                 if (sc.enabled) {
+                   c->reweighted = solveDbaAtCalibratedWeights(*solved, c->options);
+                   c->solve = c->reweighted->solver;
+                   c->options = c->reweighted->options;
+                 } else {
+                   c->solve = solveDba(*solved, c->options);
+                 }
+                 snap = std::move(solved);
                }
-               snap = std::move(solved);
-             }
-             c->snapshot = snap;
-             if (sc.enabled) {
-               c->calibration = runSelfCalibration(*c->snapshot, c->options, sc.options());
-               c->cov = std::make_unique<DbaCovariance>(
-                   selfCalibratedCovariance(*c->snapshot, c->options, so, *c->calibration));
-             } else {
-               c->cov = std::make_unique<DbaCovariance>(*c->snapshot, c->options, so);
+               c->snapshot = snap;
+               if (sc.enabled) {
+                 c->calibration = runSelfCalibration(*c->snapshot, c->options, sc.options());
+                 c->cov = std::make_unique<DbaCovariance>(
+                     selfCalibratedCovariance(*c->snapshot, c->options, so, *c->calibration));
+               } else {
+                 c->cov = std::make_unique<DbaCovariance>(*c->snapshot, c->options, so);
+               }
+             } catch (const NumericalError& e) {
+               throw NumericalError(snapshotName(*snap) + ": " + e.what(), e.keyframes());
              }
              return c;
            }),

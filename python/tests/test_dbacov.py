@@ -98,8 +98,14 @@ def test_errors_are_python_exceptions_with_the_cli_messages(shared_path, tmp_pat
     with pytest.raises(dbacov.InputError, match="gauge droid needs DROID's t0"):
         dbacov.Covariance(shared_path, gauge="droid")
     # a snapshot whose reduced system is singular: monocular, DROID's gauge holding one pose
-    with pytest.raises(dbacov.NumericalError):
+    # (named as dba-covariance names it, once)
+    with pytest.raises(dbacov.NumericalError) as err:
         dbacov.Covariance(dbacov.Snapshot(**a, t0=2), gauge="droid")
+    snap = dbacov.Snapshot(**a, t0=2)
+    name = f"{snap.source} (snapshot "
+    assert str(err.value).startswith(name), str(err.value)
+    assert str(err.value).count(snap.source) == 1, str(err.value)
+    assert "not positive definite" in str(err.value)
 
 
 def test_a_bad_kernel_variant_in_the_environment_is_a_value_error(shared_path):
