@@ -127,11 +127,6 @@ struct PyCovariance {
   std::optional<CalibratedSolve> reweighted;   ///< converge=True with self_calibrate=True
 };
 
-/// "<source> (snapshot N)": how dba-covariance names a snapshot in its error lines.
-std::string snapshotName(const Snapshot& s) {
-  return s.source + " (snapshot " + std::to_string(s.label()) + ")";
-}
-
 /// The self-calibration keywords into the core options by the apps' own builder
 /// (SelfCalibrationAppOptions::options(): the method's name through the enum table, the same
 /// message for an unknown one). A method, nodes, replicates, resampling or depth noise imply
@@ -261,9 +256,9 @@ void writePoseRawlog(const std::string& path, const std::vector<const PyCovarian
       sink.verify(t, *pc.cov);
       sink.add(t, *pc.cov);
     } catch (const InputError& e) {
-      throw InputError(snapshotName(*s) + ": " + e.what());
+      throw InputError(s->name() + ": " + e.what());
     } catch (const std::domain_error& e) {
-      throw std::domain_error(snapshotName(*s) + ": " + e.what());
+      throw std::domain_error(s->name() + ": " + e.what());
     }
   }
   sink.commit();
@@ -455,7 +450,7 @@ PYBIND11_MODULE(_dbacov, m) {
                  c->cov = std::make_unique<DbaCovariance>(*c->snapshot, c->options, so);
                }
              } catch (const NumericalError& e) {
-               throw NumericalError(snapshotName(*snap) + ": " + e.what(), e.keyframes());
+               throw NumericalError(snap->name() + ": " + e.what(), e.keyframes());
              }
              return c;
            }),

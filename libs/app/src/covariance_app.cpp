@@ -249,10 +249,6 @@ class Run {
   }
 
  private:
-  static std::string name(const Snapshot& s) {
-    return s.source + " (snapshot " + std::to_string(s.label()) + ")";
-  }
-
   /// On a worker thread: the covariances, checked by every sink before any sink takes them.
   void compute(PipelineItem& item, const DbaOptions& engine, const CovarianceOptions& covariance) {
     Snapshot& s = item.input.snapshot;
@@ -277,7 +273,7 @@ class Run {
     const Snapshot& s = item.input.snapshot;
     progress_->step(s.source);
     if (!item.cov)
-      return report(item.error_kind, s.source, name(s) + ": " + item.error, item.error);
+      return report(item.error_kind, s.source, s.name() + ": " + item.error, item.error);
     // Results are verified, so add() fails only when an output cannot be written (disk full):
     // that output is given up (reported once, not committed) and the others go on.
     bool added = true;
@@ -288,7 +284,7 @@ class Run {
       } catch (const std::exception& e) {
         broken_[i] = true;
         added = false;
-        if (!report(classifyFailure(e, true), s.source, name(s) + ": " + e.what(), e.what()))
+        if (!report(classifyFailure(e, true), s.source, s.name() + ": " + e.what(), e.what()))
           return false;
       }
     }

@@ -146,7 +146,7 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   std::string* warning = &text;
   const auto t0 = std::chrono::steady_clock::now();
   bool converged = false;
-  const std::string name = s.source + " (snapshot " + std::to_string(s.label()) + ")";
+  const std::string name = s.name();
   // With --self-calibrate, --converge solves at the calibrated weights of the factors on the
   // depths alone (stereo edges, RGB-D readings): at the claimed ones the estimate is biased when
   // they are mis-weighted against the flow (calibrated_solve.h). The covariance then belongs to
@@ -189,11 +189,10 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const bool unreliable = cal.optimum.unreliable();
   if (unreliable && warning && warning->empty())
-    *warning = s.source + " (snapshot " + std::to_string(s.label()) +
-               "): the state is far from the optimum of its factors (one Gauss-Newton step is " +
-               number(cal.optimum.step_sigma) + " sigma for " +
-               std::to_string(cal.optimum.free_dof) +
-               " free DoF): the self-calibration may be biased; consider --converge";
+    *warning =
+        name + ": the state is far from the optimum of its factors (one Gauss-Newton step is " +
+        number(cal.optimum.step_sigma) + " sigma for " + std::to_string(cal.optimum.free_dof) +
+        " free DoF): the self-calibration may be biased; consider --converge";
   // Without --converge the state is the input's, solved at the claimed weights: a depth-only
   // factor far off the flow's variance factor means that state is biased (over-weighted) or
   // wastes their information (under-weighted). The ratios are a single pass's (vce scales at the

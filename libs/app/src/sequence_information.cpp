@@ -20,8 +20,8 @@ void SequenceProblem::add(const Snapshot& s) {
     W_ = s.W;
     intrinsics_ = s.intrinsics;
   } else if (s.H != H_ || s.W != W_ || s.intrinsics != intrinsics_) {
-    throw InputError(s.source + " (snapshot " + std::to_string(s.label()) +
-                     "): its grid or intrinsics differ from the first snapshot's; one sequence "
+    throw InputError(s.name() +
+                     ": its grid or intrinsics differ from the first snapshot's; one sequence "
                      "problem needs one camera");
   }
   ++snapshots_;

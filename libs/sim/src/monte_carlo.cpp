@@ -23,8 +23,7 @@ EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& sim, const DbaOption
                                             runSelfCalibration(s, options, *self_calibration))
                  : DbaCovariance(s, options);
     } catch (const NumericalError& e) {
-      throw NumericalError(s.source + " (snapshot " + std::to_string(s.label()) + "): " + e.what(),
-                           e.keyframes());
+      throw NumericalError(s.name() + ": " + e.what(), e.keyframes());
     }
   };
   const DbaCovariance cov = covariance();

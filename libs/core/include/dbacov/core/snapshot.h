@@ -57,6 +57,8 @@ struct Snapshot {
 
   /// Snapshot label used in outputs: `id` if present, else the position in the input.
   std::int64_t label() const { return id ? *id : index; }
+  /// "SOURCE (snapshot LABEL)": how errors and warnings name the snapshot they are about.
+  std::string name() const { return source + " (snapshot " + std::to_string(label()) + ")"; }
 
   /// The stereo rig transform (stereo_rig must be set), quaternion normalized.
   Eigen::Isometry3d stereoRig() const;
