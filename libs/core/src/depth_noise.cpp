@@ -93,8 +93,8 @@ SourceEdges sourceEdges(const Snapshot& s, const DbaNormalEquations& ne, const D
 /// at the depths that have a factor of a pose edge too (those the terms are formed at).
 std::vector<std::pair<int, EdgeMoments>> sourceMoments(const Snapshot& s, const DbaOptions& o,
                                                        const DbaNormalEquations& ne,
-                                                       const DepthTerms& dt) {
-  const SourceEdges se = sourceEdges(s, ne, dt);
+                                                       const DepthTerms& dt,
+                                                       const SourceEdges& se) {
   const int src = ne.keyframes[dt.source_slot];
   const PinholeIntrinsics K = PinholeIntrinsics::fromVector(s.intrinsics);
   const std::size_t HW = s.pixelsPerFrame(), P = dt.pixel.size();
@@ -151,11 +151,10 @@ std::vector<std::pair<int, EdgeMoments>> sourceMoments(const Snapshot& s, const 
 
 /// One source keyframe's terms, with the fourth cumulants `kc` (sourceMoments' estimates).
 SourceTerms sourceTerms(const Snapshot& s, const DbaOptions& o, const DbaNormalEquations& ne,
-                        const DepthTerms& dt, const Cumulants& kc) {
+                        const DepthTerms& dt, const SourceEdges& se, const Cumulants& kc) {
   SourceTerms out;
   const int src = ne.keyframes[dt.source_slot];
   const int T = static_cast<int>(dt.touched.size());
-  const SourceEdges se = sourceEdges(s, ne, dt);
   const std::vector<SourceEdges::Ref>& edges = se.edges;
   const std::vector<int>& stereo = se.stereo;
   const int E = static_cast<int>(edges.size());
@@ -386,14 +385,17 @@ DepthNoiseTerms depthNoiseTerms(const Snapshot& s, const DbaOptions& o,
   // The cumulants first (a pass over the factors' residuals only), so that the κ terms are
   // formed once with them: per unit γ₂ and γ_xy they would be twice the products. (Without the
   // κ share they are still estimated, for the report.)
+  std::vector<SourceEdges> edges(ne.depths.size());
   std::vector<std::vector<std::pair<int, EdgeMoments>>> per_moments(ne.depths.size());
-  parallelFor(ne.depths.size(),
-              [&](std::size_t i) { per_moments[i] = sourceMoments(s, o, ne, ne.depths[i]); });
+  parallelFor(ne.depths.size(), [&](std::size_t i) {
+    edges[i] = sourceEdges(s, ne, ne.depths[i]);
+    per_moments[i] = sourceMoments(s, o, ne, ne.depths[i], edges[i]);
+  });
   const Cumulants est = pooledCumulants(edgeMoments(per_moments, s.numEdges()));
   const Cumulants kc = fourth_cumulants ? est : Cumulants{};
   std::vector<SourceTerms> per(ne.depths.size());
   parallelFor(ne.depths.size(),
-              [&](std::size_t i) { per[i] = sourceTerms(s, o, ne, ne.depths[i], kc); });
+              [&](std::size_t i) { per[i] = sourceTerms(s, o, ne, ne.depths[i], edges[i], kc); });
   const bool kappa = kc.any();
   for (std::size_t i = 0; i < per.size(); ++i) {
     const std::vector<int>& touched = ne.depths[i].touched;
