@@ -47,6 +47,10 @@ if [[ " $passes " == *" asan "* ]]; then
   statistical+='|^SequenceInformation\.PerSnapshotMarginalGraphIsOverConfidentSequenceGraphIsNot$'
   statistical+='|^SequenceInformation\.SharedFlowsChainedGaugeSequenceGraphConsistentAndNoLessAccurate$'
   statistical+='|^CalibratedSolve\.OverWeighted'  # its single runs: CalibratedSolve's other tests
+  # The bootstrap's statistics (24 re-solved replicates against the scale's sampling spread); every
+  # branch of the redraw runs under the sanitizers in ...RedrawnEachWayInAFewReplicates and
+  # ...ReproducibleWhateverTheThreadsAndSeeded.
+  statistical+='|^BootstrapSelfCalibration\.(ScaleIsOne|ScaleGrows|WildResampling|StereoAndSensorDepthsAreRedrawnScaleIsOne)'
   log=build-asan/ctest.log
   status=0
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$statistical" "$@" 2>&1 |

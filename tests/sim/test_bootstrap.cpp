@@ -111,6 +111,33 @@ TEST(BootstrapSelfCalibration, StereoAndSensorDepthsAreRedrawnScaleIsOne) {
   }
 }
 
+TEST(BootstrapSelfCalibration, StereoAndSensorDepthsRedrawnEachWayInAFewReplicates) {
+  // The redraw of stereo edges and RGB-D readings, parametric and wild, in 4 replicates each:
+  // what the statistical test above proves with 24, as one run of every branch (the sanitizer
+  // pass runs this one and leaves the statistics to the Release pass, scripts/test.sh).
+  for (const SensorMode mode : {SensorMode::Stereo, SensorMode::Rgbd}) {
+    SCOPED_TRACE(toString(mode));
+    ScenarioConfig cfg = smallScene(3000);
+    cfg.sensor.mode = mode;
+    cfg.sensor.stereo_baseline = 0.5;
+    cfg.sensor.depth_alpha = 1e5;
+    cfg.gauge.type = GaugeOptions::Type::Droid;
+    const Scenario sc(cfg);
+    const DbaOptions o = sc.config().engineOptions();
+    const SimulatedSnapshot sim = sc.simulate(0);
+    for (const SelfCalibrationOptions& c : {bootstrap(4), wildBootstrap(4)}) {
+      const SelfCalibration boot = runSelfCalibration(sim.snapshot, o, c);
+      ASSERT_TRUE(boot.reduced_covariance);
+      EXPECT_EQ(boot.bootstrap_replicates, 4);
+      EXPECT_EQ(boot.bootstrap_failed, 0);
+      EXPECT_TRUE(std::isfinite(boot.bootstrap_scale) && boot.bootstrap_scale > 0)
+          << boot.bootstrap_scale;
+      EXPECT_TRUE(boot.reduced_covariance->allFinite());
+      EXPECT_EQ(boot.bootstrap_keyframe_scales.size(), 6u);
+    }
+  }
+}
+
 TEST(BootstrapSelfCalibration, WildResamplingScaleIsOneWhereTheSolveIsLinear) {
   // The wild draw (each row's own residual, random sign, the edge's energy scaled to s_e) on
   // white noise at high SNR: the same verdict as the parametric one, k = 1 up to sampling.
