@@ -19,11 +19,13 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <map>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "dbacov/core/errors.h"
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/sim/calibrated_solve.h"
 #include "dbacov/sim/consistency.h"
@@ -161,7 +163,7 @@ struct Row {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int study(int argc, char** argv) {
   int runs = 20, calibration_runs = 10, first_run = 1000;
   std::string sources_arg = "white,white2x,wrongscale,field,affine,affine+outliers",
               methods_arg = "raw,gt,vce,autocorr,score,sandwich";
@@ -221,16 +223,21 @@ int main(int argc, char** argv) {
           sim::SimulatedSnapshot solved;
           const sim::SimulatedSnapshot* at = &snap;
           DbaOptions oc = o;
-          if (name.find("-calsolved") != std::string::npos) {
-            solved = snap;
-            oc = solveDbaAtCalibratedWeights(solved.snapshot, o).options;
-            at = &solved;
-            name.erase(name.find("-calsolved"), 10);
-          } else if (name.find("-solved") != std::string::npos) {
-            solved = snap;
-            solveDba(solved.snapshot, o);
-            at = &solved;
-            name.erase(name.find("-solved"), 7);
+          // The solves' numerical errors name the snapshot, as evaluateSnapshot's do.
+          try {
+            if (name.find("-calsolved") != std::string::npos) {
+              solved = snap;
+              oc = solveDbaAtCalibratedWeights(solved.snapshot, o).options;
+              at = &solved;
+              name.erase(name.find("-calsolved"), 10);
+            } else if (name.find("-solved") != std::string::npos) {
+              solved = snap;
+              solveDba(solved.snapshot, o);
+              at = &solved;
+              name.erase(name.find("-solved"), 7);
+            }
+          } catch (const NumericalError& e) {
+            throw NumericalError(snap.snapshot.name() + ": " + m + ": " + e.what(), e.keyframes());
           }
           if (name == "raw" || name == "gt") {
             x = sim::evaluateSnapshot(*at, oc, label);
@@ -298,4 +305,15 @@ int main(int argc, char** argv) {
     }
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  // An error (a snapshot's numerical breakdown, a bad option value) is a line naming it and exit 1,
+  // not an abort.
+  try {
+    return study(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "self_calibration_study: %s\n", e.what());
+    return 1;
+  }
 }
