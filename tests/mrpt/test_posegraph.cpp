@@ -406,6 +406,45 @@ TEST(PoseGraphOptimizer, ParallelEdgesAreFusedIntoTheirWeightedMean) {
 namespace dbacov {
 namespace {
 
+TEST(PoseGraphFiles, SelfCalibratedSequenceGraphDoesNotDependOnTheClaimedWeightScale) {
+  // --graph with --self-calibrate: the sequence's flows enter at each snapshot's calibrated
+  // variance factors. A weight scale claimed 100x larger is then corrected (vce's factors are
+  // 100x larger), and the graphs agree; uncalibrated, their information differs 100x.
+  testing::TempDir dir;
+  for (int i = 0; i < 3; ++i)
+    testing::writeTinySnapshot(dir.file("s" + std::to_string(i) + ".npz"), i + 1, i, 5 + i);
+  const auto graphAt = [&](const std::string& name, const char* weight_scale, bool calibrate) {
+    std::vector<std::string> args{"-i",           dir.path(),       "--graph",
+                                  dir.file(name), "--weight-scale", weight_scale};
+    if (calibrate) args.insert(args.end(), {"--self-calibrate-method", "vce"});
+    const AppResult r = testing::runApp(app::runCovarianceApp, "dba-covariance", args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(contains(r.err,
+                       "self-calibrated (vce): each snapshot's edges at their variance "
+                       "factors"),
+              calibrate)
+        << r.err;
+    return mrpt_bridge::fromNetwork(mrpt_bridge::readGraphBinary(dir.file(name + ".graphbin")));
+  };
+  const PoseGraph raw4 = graphAt("raw4", "4", false), raw400 = graphAt("raw400", "400", false);
+  const PoseGraph cal4 = graphAt("cal4", "4", true), cal400 = graphAt("cal400", "400", true);
+  ASSERT_EQ(raw4.edges.size(), cal4.edges.size());
+  ASSERT_EQ(cal4.edges.size(), cal400.edges.size());
+  ASSERT_FALSE(cal4.edges.empty());
+  double calibration_moved = 0;
+  for (std::size_t k = 0; k < cal4.edges.size(); ++k) {
+    const Matrix6d& a = cal4.edges[k].information;
+    const Matrix6d& b = cal400.edges[k].information;
+    if (cal4.edges[k].from == 0 && cal4.edges[k].to == 1) continue;  // the gauge pair's stiffness
+    EXPECT_LT((a - b).norm(), 1e-4 * a.norm()) << cal4.edges[k].from << "->" << cal4.edges[k].to;
+    EXPECT_GT((raw400.edges[k].information - raw4.edges[k].information).norm(),
+              10 * raw4.edges[k].information.norm());
+    calibration_moved =
+        std::max(calibration_moved, (a - raw4.edges[k].information).norm() / a.norm());
+  }
+  EXPECT_GT(calibration_moved, 1e-3);  // the calibrated graph is not the claimed one
+}
+
 TEST(PoseGraphFiles, DbaCovarianceWritesTheGraphOfTheSequence) {
   testing::TempDir dir;
   std::vector<Snapshot> snaps;

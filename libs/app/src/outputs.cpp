@@ -2,13 +2,16 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <sstream>
 
 #include "dbacov/app/csv_format.h"
 #include "dbacov/core/criteria.h"
+#include "dbacov/core/self_calibration.h"
 #include "dbacov/io/npy.h"
 
 namespace dbacov::app {
@@ -182,16 +185,38 @@ GraphSink::GraphSink(std::string prefix, GraphEdges edges, const DbaOptions& opt
 }
 
 void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) {
-  if (sequence_)
+  if (!sequence_) {
+    builder_.add(s, cov);  // the snapshot's own covariances, self-calibrated or not
+    return;
+  }
+  // --self-calibrate: the snapshot's flows enter the sequence at the variance factors its
+  // calibration found (the edges' inflations: vce's and nuisance's white scales, score's and
+  // autocorr's whole factors), so that the graph's information is calibrated as the other
+  // outputs are, not at the claimed weights.
+  const SelfCalibrationSummary& sc = cov.summary().self_calibration;
+  if (sc.method.empty() || static_cast<int>(sc.edge_factor.size()) != s.numEdges()) {
     problem_->add(s);
-  else
-    builder_.add(s, cov);
+    return;
+  }
+  problem_->add(inflateWeights(s, sc.edge_factor));
+  calibration_ = sc.method;
+  if (s.disps_sens) sensor_scales_.push_back(sc.sensor_depth_scale);
 }
 
 void GraphSink::commit() {
   PoseGraph g;
   if (sequence_) {
-    const SequenceInformation si = sequenceInformation(*problem_, options_);
+    // The sensor readings' information is one α for the whole sequence (DROID's): at the median
+    // of the snapshots' calibrated variance factors.
+    DbaOptions o = options_;
+    double sensor_scale = 1;
+    if (!sensor_scales_.empty()) {
+      std::vector<double> v = sensor_scales_;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      sensor_scale = v[v.size() / 2];
+      if (sensor_scale > 0 && std::isfinite(sensor_scale)) o.sensor_depth_weight /= sensor_scale;
+    }
+    const SequenceInformation si = sequenceInformation(*problem_, o);
     const SparsifiedGraph sg = sparsifyInformation(si.info, si.problem, graphTopology(edges_));
     g = sg.graph;
     std::ostringstream os;
@@ -201,6 +226,15 @@ void GraphSink::commit() {
        << sg.edges << " edges, information scale " << formatDouble(sg.scale)
        << ", KL to the dense information " << formatDouble(sg.kl) << " nats ("
        << formatDouble(sg.kl / std::max(sg.dof, 1)) << " per DoF)";
+    if (!calibration_.empty()) {
+      os << "; self-calibrated (" << calibration_ << "): each snapshot's edges at their variance "
+         << "factors";
+      if (!sensor_scales_.empty()) os << ", sensor readings at " << formatDouble(sensor_scale);
+      if (calibration_ == "nuisance" || calibration_ == "bootstrap")
+        os << " (white noise only: the per-edge flow field's correlation is not in the graph)";
+      else if (calibration_ == "sandwich")
+        os << " (the sandwich keeps the weights: the graph is not calibrated)";
+    }
     summary_ = os.str();
   } else {
     g = builder_.graph();

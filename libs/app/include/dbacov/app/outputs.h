@@ -179,6 +179,9 @@ class GraphSink final : public OutputSink {
   bool sequence_ = true;
   PoseGraphBuilder builder_;
   std::unique_ptr<SequenceProblem> problem_;
+  /// --self-calibrate: the method, and the snapshots' sensor-reading variance factors.
+  std::string calibration_;
+  std::vector<double> sensor_scales_;
 };
 
 /// snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,
