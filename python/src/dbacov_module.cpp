@@ -129,15 +129,15 @@ struct PyCovariance {
 
 /// The self-calibration keywords into the core options by the apps' own builder
 /// (SelfCalibrationAppOptions::options(): the method's name through the enum table, the same
-/// message for an unknown one). A method, nodes, replicates, resampling or depth noise imply
-/// self_calibrate, as their flags do.
+/// message for an unknown one). A method, iterations, nodes, replicates, resampling or depth
+/// noise imply self_calibrate, as their flags do.
 SelfCalibrationAppOptions selfCalibrationOptions(
     bool self_calibrate, std::optional<std::string> method, std::optional<int> iterations,
     std::optional<int> nodes, std::optional<int> replicates, std::optional<std::string> resampling,
     std::optional<bool> depth_noise, bool converge) {
   SelfCalibrationAppOptions o;
-  o.enabled = self_calibrate || method.has_value() || nodes.has_value() || replicates.has_value() ||
-              resampling.has_value() || depth_noise.has_value();
+  o.enabled = self_calibrate || method.has_value() || iterations.has_value() || nodes.has_value() ||
+              replicates.has_value() || resampling.has_value() || depth_noise.has_value();
   if (method) o.method = *method;
   if (iterations) {
     if (*iterations < 1 || *iterations > 20)  // dba-covariance's CLI::Range(1, 20)

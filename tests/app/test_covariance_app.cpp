@@ -268,6 +268,39 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
   }
 }
 
+// The run summary's self-calibration line: the method, the inflations, the time, the distance
+// from the optimum (Gauss-Newton step in sigma and the gradient norm); a snapshot whose state is
+// far from its optimum gets the warning naming it and --converge (which the Python suite and
+// CalibratedSolve.* run).
+TEST(CovarianceApp, SelfCalibrationSummaryLineAndTheFarFromTheOptimumWarning) {
+  testing::TempDir dir;
+  sim::SyntheticSnapshot syn = testing::tinySnapshot(1, 0);
+  // The synthetic state (the truth, noisy flows) is far from its optimum at weight scale 400;
+  // a free keyframe moved 5 mm makes sure of it.
+  syn.snapshot.poses_cw(4, 0) += 0.005;
+  io::saveSnapshotNpz(dir.file("a.npz"), syn.snapshot);
+  const std::string in = dir.file("a.npz"), out = dir.file("o.csv");
+  // --self-calibrate-iterations implies --self-calibrate, as the other sub-options do.
+  const AppResult r = run({"-i", in, "--csv", out, "--weight-scale", "400",
+                           "--self-calibrate-method", "vce", "--self-calibrate-iterations", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* part :
+       {"dba-covariance: self-calibration vce: 1 snapshots, edge inflation median ",
+        ", global residual scale ", " s per snapshot, Gauss-Newton step to the optimum median ",
+        " sigma per sqrt(DoF) (gauge-reduced gradient norm median ", ", 1 far from their optimum"})
+    EXPECT_TRUE(contains(r.err, part)) << part << "\n" << r.err;
+  EXPECT_TRUE(contains(r.err, "dba-covariance: warning: " + in +
+                                  " (snapshot 0): the state is far from the optimum of its "
+                                  "factors (one Gauss-Newton step is "))
+      << r.err;
+  EXPECT_TRUE(contains(r.err, "consider --converge")) << r.err;
+  const AppResult implied =
+      run({"-i", in, "--csv", out, "--weight-scale", "400", "--self-calibrate-iterations", "2"});
+  ASSERT_EQ(implied.code, 0) << implied.err;
+  EXPECT_TRUE(contains(implied.err, "dba-covariance: self-calibration nuisance: 1 snapshots"))
+      << implied.err;
+}
+
 TEST(CovarianceApp, MissingInputsFailWithoutTouchingTheOutput) {
   testing::TempDir dir;
   std::filesystem::create_directory(dir.file("empty"));

@@ -62,8 +62,9 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
       ->check(enumValidator<SelfCalibrationMethod>())
       ->each([&o](const std::string&) { o.enabled = true; });
   cli.add_option("--self-calibrate-iterations", o.iterations,
-                 "Reweighting passes of vce/score/autocorr (default 1)")
-      ->check(CLI::Range(1, 20));
+                 "Reweighting passes of vce/score/autocorr (default 1); implies --self-calibrate")
+      ->check(CLI::Range(1, 20))
+      ->each([&o](const std::string&) { o.enabled = true; });
   cli.add_option("--self-calibrate-nodes", o.nodes,
                  "nuisance: the per-edge flow error field, 0 = affine, G = affine + G x G "
                  "bilinear spline per channel (default " +
@@ -263,6 +264,7 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     cross_kurtoses_.push_back(cov->summary().self_calibration.depth_noise_cross_kurtosis);
   }
   steps_.push_back(cal.optimum.step_sigma / std::sqrt(std::max(1, cal.optimum.free_dof)));
+  gradients_.push_back(cal.optimum.gradient_norm);
   ++snapshots_;
   unreliable_ += unreliable;
   converged_ += converged;
@@ -334,7 +336,8 @@ std::string SelfCalibrationRun::summaryLine() const {
   if (snapshots_ > 0) os << ", " << number(seconds_ / snapshots_) << " s per snapshot";
   if (!steps_.empty())
     os << ", Gauss-Newton step to the optimum median " << number(median(steps_))
-       << " sigma per sqrt(DoF)";
+       << " sigma per sqrt(DoF) (gauge-reduced gradient norm median " << number(median(gradients_))
+       << ")";
   if (unreliable_) os << ", " << unreliable_ << " far from their optimum";
   return os.str();
 }

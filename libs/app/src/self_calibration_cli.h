@@ -51,7 +51,7 @@ class SelfCalibrationRun {
   SelfCalibrationOptions options_;
   mutable std::mutex mutex_;
   std::map<std::int64_t, std::string> rows_;  ///< per snapshot index, CSV rows
-  std::vector<double> inflations_, scales_, steps_;
+  std::vector<double> inflations_, scales_, steps_, gradients_;
   std::vector<double> field_sigmas_, fine_sigmas_;  ///< nuisance: σ_a, σ_f per snapshot
   std::vector<double> boot_scales_;                 ///< bootstrap: k per snapshot
   std::vector<double> depth_shares_;    ///< what the depths' term adds to the trace, per snapshot

@@ -175,7 +175,7 @@ struct EdgeCalibration {
   /// Beyond scale: τ (autocorr), κ·c/vce (score), 1 + field / white share of q (nuisance).
   double correlation = 1;
   double inflation = 1;         ///< c_e: the edge's variance factor (1 for sandwich; nuisance: s_e)
-  double effective_pixels = 0;  ///< pixels · vce_scale / inflation (autocorr: pixels / τ)
+  double effective_pixels = 0;  ///< pixels / correlation (autocorr: pixels / τ)
 };
 
 /// How far the snapshot's state is from the optimum of its own factors: the reduced gradient and
