@@ -119,6 +119,14 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
     assert not os.path.exists(tmp_path / "x.csv")
 
 
+def test_iterations_keyword_implies_the_self_calibration(shared_path):
+    # As --self-calibrate-iterations does on the command line (it was silently ignored alone).
+    it = dbacov.Covariance(shared_path, self_calibrate_iterations=2)
+    assert it.self_calibration is not None
+    assert it.self_calibration["method"] == "nuisance"
+    assert dbacov.Covariance(shared_path).self_calibration is None
+
+
 def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
     # On by default; self_calibrate_depth_noise=False (implies self_calibrate) is the CLI's
     # --self-calibrate-depth-noise off, to 1e-12; the term only widens the covariance.

@@ -142,7 +142,18 @@ def main(argv=None):
     p.add_argument("--preset", default="droid")
     p.add_argument("--weight-scale", type=float)
     p.add_argument("--gauge")
-    p.add_argument("--self-calibrate", action="store_true")
+    p.add_argument("--self-calibrate", action="store_true",
+                   help="self-calibrated sigma (dba-covariance --self-calibrate)")
+    # dba-covariance's sub-options, each implying --self-calibrate (Covariance's keywords).
+    p.add_argument("--self-calibrate-method",
+                   help="nuisance (default), bootstrap, score, vce, autocorr or sandwich")
+    p.add_argument("--self-calibrate-iterations", type=int)
+    p.add_argument("--self-calibrate-nodes", type=int)
+    p.add_argument("--self-calibrate-replicates", type=int)
+    p.add_argument("--self-calibrate-resampling", choices=["parametric", "wild"])
+    p.add_argument("--self-calibrate-depth-noise", choices=["on", "off"])
+    p.add_argument("--converge", action="store_true",
+                   help="solve each update's DBA to the optimum of its factors first")
     p.add_argument("--fps", type=float,
                    help="rate of the frames DROID is fed (after its --stride): prints the "
                         "keyframe time tstamp / fps")
@@ -156,6 +167,13 @@ def main(argv=None):
             options[key] = getattr(o, key)
     if o.self_calibrate:
         options["self_calibrate"] = True
+    for key in ("method", "iterations", "nodes", "replicates", "resampling"):
+        if getattr(o, "self_calibrate_" + key) is not None:
+            options["self_calibrate_" + key] = getattr(o, "self_calibrate_" + key)
+    if o.self_calibrate_depth_noise is not None:
+        options["self_calibrate_depth_noise"] = o.self_calibrate_depth_noise == "on"
+    if o.converge:
+        options["converge"] = True
     times = None if o.fps is None else np.arange(1_000_000) / o.fps
     install(KeyframeSigmaPrinter(image_times_s=times, digits=o.digits, **options))
     sys.argv = script
