@@ -21,6 +21,8 @@
 #include "dbacov/app/simul_app.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/io/snapshot_npz.h"
+#include "dbacov/sim/consistency.h"
+#include "dbacov/sim/monte_carlo.h"
 #include "dbacov/sim/scenario.h"
 #include "temp_dir.h"
 
@@ -271,6 +273,58 @@ TEST(EvaluateApp, Sim3AlignmentMakesRelativeNeesIndependentOfFrameAndScale) {
       run(fx.dir.file("kf2.csv"), fx.dir.file("rel2.csv"), fx.dir.file("w.csv"), "none");
   for (const auto& [key, v] : wrong.at("relative"))
     EXPECT_GT(v, 30 * aligned.at("relative").at(key)) << key.second;
+}
+
+// dba-evaluate --monte-carlo with a self-calibration: the NEES are those of the self-calibrated
+// covariances, as sim::runMonteCarlo computes them with the method's options (and not the raw
+// ones, which correlated flow errors make over-confident).
+TEST(EvaluateApp, MonteCarloModeEvaluatesTheSelfCalibratedCovariances) {
+  testing::TempDir dir;
+  const std::vector<std::string> scene{"--monte-carlo",
+                                       "3",
+                                       "--height",
+                                       "12",
+                                       "--width",
+                                       "16",
+                                       "--mode",
+                                       "whole",
+                                       "--keyframes",
+                                       "5",
+                                       "--weight-scale",
+                                       "400",
+                                       "--noise",
+                                       "correlated",
+                                       "--correlation-length",
+                                       "2",
+                                       "-q"};
+  const auto aneesOf = [&](const std::vector<std::string>& extra, const std::string& json) {
+    std::vector<std::string> args = scene;
+    args.insert(args.end(), extra.begin(), extra.end());
+    args.insert(args.end(), {"--json", dir.file(json)});
+    const AppResult r = evaluate(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return nlohmann::json::parse(testing::readFile(dir.file(json)))["absolute"]["anees"]
+        .get<double>();
+  };
+  const double raw = aneesOf({}, "raw.json");
+  const double vce = aneesOf({"--self-calibrate-method", "vce"}, "vce.json");
+  sim::ScenarioConfig c;
+  c.camera.H = 12;
+  c.camera.W = 16;
+  c.mode = sim::SimulationMode::WholeTrajectory;
+  c.trajectory.num_keyframes = 5;
+  c.weight_scale = 400;
+  c.noise.type = sim::NoiseModel::Type::Correlated;
+  c.noise.correlation_length_px = 2;
+  const sim::Scenario sc(c);
+  SelfCalibrationOptions method;
+  method.method = SelfCalibrationMethod::Vce;
+  const double expected = summarize(sim::runMonteCarlo(sc, 0, 3, c.engineOptions(),
+                                                       sim::PairSelection::Consecutive, {}, &method)
+                                        .samples.absolute)
+                              .anees;
+  EXPECT_NEAR(vce, expected, 1e-9 * expected);
+  EXPECT_GT(std::abs(vce - raw), 0.05 * raw) << "raw " << raw << ", vce " << vce;
 }
 
 TEST(EvaluateApp, MonteCarloModeFitsTheInflationOnTheCalibrationRuns) {
