@@ -59,5 +59,40 @@ TEST(SelfCalibrationMonteCarlo, DefaultMethodBringsAffineFlowErrorsInsideTheRegi
   EXPECT_GT(summarize(sc_cal.samples.absolute).coverage_all[0], 0.683 + 3 * cov_sd);
 }
 
+/// The study's "field" source in this regime: a Gaussian random field on each edge's flow
+/// (length 3 px, 0.03 px, about the white noise's size here) and white noise 1.5x the claimed.
+TEST(SelfCalibrationMonteCarlo, DefaultMethodOnARandomFieldAndWiderWhiteNoiseIsNotOverConfident) {
+  ScenarioConfig cfg = affineScenario();
+  cfg.noise.affine_px = 0;
+  cfg.noise.field_px = 0.03;
+  cfg.noise.field_length_px = 3.0;
+  cfg.noise.amplitude = 1.5;
+  const Scenario sc(cfg);
+  const DbaOptions o = sc.config().engineOptions();
+  const SelfCalibrationOptions defaults;
+  const MonteCarloResult raw = runMonteCarlo(sc, 0, 40, o);
+  const MonteCarloResult cal =
+      runMonteCarlo(sc, 0, 40, o, PairSelection::Consecutive, {}, &defaults);
+  const ConsistencyStats r = summarize(raw.samples.absolute), c = summarize(cal.samples.absolute);
+  RecordProperty("raw_anees", std::to_string(r.anees));
+  RecordProperty("anees", std::to_string(c.anees));
+  RecordProperty("coverage1", std::to_string(c.coverage_all[0]));
+  RecordProperty("tail", std::to_string(c.tail_95));
+  EXPECT_GT(r.anees, r.region.upper) << "raw ANEES " << r.anees;
+  // Held out (the scene was fixed before its first run): raw 250, self-calibrated 4.88 against
+  // [4.97, 7.12], relative 4.69: slightly conservative here, 1σ 70.0 %, tail 1.9 % (README,
+  // *Study*). The bounds: never over-confident, and at most 10 % below the region, so that a
+  // change that makes it over-confident or more conservative fails.
+  for (const ConsistencyStats& x : {c, summarize(cal.samples.relative)}) {
+    EXPECT_LE(x.anees, x.region.upper) << "self-calibrated ANEES " << x.anees;
+    EXPECT_GE(x.anees, 0.9 * x.region.lower) << "self-calibrated ANEES " << x.anees;
+  }
+  const double n = static_cast<double>(c.samples);
+  const double cov_sd = 1.5 * std::sqrt(0.683 * 0.317 / n),
+               tail_sd = 1.5 * std::sqrt(0.05 * 0.95 / n);
+  EXPECT_NEAR(c.coverage_all[0], 0.683, 3 * cov_sd) << "1-sigma coverage, " << n << " samples";
+  EXPECT_NEAR(c.tail_95, 0.05, 3 * tail_sd) << "NEES tail, " << n << " samples";
+}
+
 }  // namespace
 }  // namespace dbacov::sim
