@@ -200,23 +200,13 @@ void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) {
   }
   problem_->add(inflateWeights(s, sc.edge_factor));
   calibration_ = sc.method;
-  if (s.disps_sens) sensor_scales_.push_back(sc.sensor_depth_scale);
+  depth_term_ = depth_term_ || sc.depth_noise_share > 0;
 }
 
 void GraphSink::commit() {
   PoseGraph g;
   if (sequence_) {
-    // The sensor readings' information is one α for the whole sequence (DROID's): at the median
-    // of the snapshots' calibrated variance factors.
-    DbaOptions o = options_;
-    double sensor_scale = 1;
-    if (!sensor_scales_.empty()) {
-      std::vector<double> v = sensor_scales_;
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      sensor_scale = v[v.size() / 2];
-      if (sensor_scale > 0 && std::isfinite(sensor_scale)) o.sensor_depth_weight /= sensor_scale;
-    }
-    const SequenceInformation si = sequenceInformation(*problem_, o);
+    const SequenceInformation si = sequenceInformation(*problem_, options_);
     const SparsifiedGraph sg = sparsifyInformation(si.info, si.problem, graphTopology(edges_));
     g = sg.graph;
     std::ostringstream os;
@@ -227,13 +217,18 @@ void GraphSink::commit() {
        << ", KL to the dense information " << formatDouble(sg.kl) << " nats ("
        << formatDouble(sg.kl / std::max(sg.dof, 1)) << " per DoF)";
     if (!calibration_.empty()) {
+      // What a weight per edge cannot carry is said: the depths' second-order term, the
+      // nuisance field and the bootstrap's scale; the sandwich changes no weight.
       os << "; self-calibrated (" << calibration_ << "): each snapshot's edges at their variance "
          << "factors";
-      if (!sensor_scales_.empty()) os << ", sensor readings at " << formatDouble(sensor_scale);
+      std::vector<std::string> left_out;
+      if (depth_term_) left_out.push_back("the depths' second-order term");
+      if (calibration_ == "bootstrap") left_out.push_back("the bootstrap's scale");
       if (calibration_ == "nuisance" || calibration_ == "bootstrap")
-        os << " (white noise only: the per-edge flow field's correlation is not in the graph)";
-      else if (calibration_ == "sandwich")
-        os << " (the sandwich keeps the weights: the graph is not calibrated)";
+        left_out.push_back("the per-edge flow field (white noise only)");
+      for (std::size_t i = 0; i < left_out.size(); ++i)
+        os << (i == 0 ? ", without " : " and ") << left_out[i];
+      if (calibration_ == "sandwich") os << " (the sandwich keeps the weights: not calibrated)";
     }
     summary_ = os.str();
   } else {

@@ -24,6 +24,15 @@ void SequenceProblem::add(const Snapshot& s) {
                      ": its grid or intrinsics differ from the first snapshot's; one sequence "
                      "problem needs one camera");
   }
+  // DROID's stereo edges (one rig for the run) and RGB-D readings go into the sequence too.
+  if (s.stereo_rig) {
+    if (!stereo_rig_)
+      stereo_rig_ = s.stereo_rig;
+    else if (*s.stereo_rig != *stereo_rig_)
+      throw InputError(s.name() +
+                       ": its stereo rig differs from the first stereo snapshot's; one sequence "
+                       "problem needs one rig");
+  }
   ++snapshots_;
   const std::size_t P = s.pixelsPerFrame();
   for (int k : s.graphKeyframes()) {
@@ -34,6 +43,8 @@ void SequenceProblem::add(const Snapshot& s) {
     Keyframe& kf = keyframes_[ts];
     kf.pose_cw = s.poses_cw.row(k);
     kf.disp.assign(s.disps.begin() + k * P, s.disps.begin() + (k + 1) * P);
+    if (s.disps_sens)
+      kf.disp_sens.assign(s.disps_sens->begin() + k * P, s.disps_sens->begin() + (k + 1) * P);
     if (s.timestamps_s) kf.time_s = (*s.timestamps_s)[k];
   }
   for (int e = 0; e < s.numEdges(); ++e) {
@@ -67,11 +78,17 @@ Snapshot SequenceProblem::assemble() const {
   for (int k = 0; k < N; ++k) s.tstamp[k] = -1.0 - k;  // filler rows: a time stamp no one has
   bool times = true;
   std::vector<double> time_s(N, 0.0);
+  s.stereo_rig = stereo_rig_;
+  for (const auto& [tstamp, kf] : keyframes_)
+    if (!kf.disp_sens.empty() && !s.disps_sens)  // 0: no reading (filler rows, mono keyframes)
+      s.disps_sens = std::vector<float>(static_cast<std::size_t>(N) * P, 0.0f);
   for (const auto& [tstamp, kf] : keyframes_) {
     const int k = index.at(tstamp);
     s.tstamp[k] = tstamp;
     s.poses_cw.row(k) = kf.pose_cw;
     std::copy(kf.disp.begin(), kf.disp.end(), s.disps.begin() + k * P);
+    if (!kf.disp_sens.empty())
+      std::copy(kf.disp_sens.begin(), kf.disp_sens.end(), s.disps_sens->begin() + k * P);
     times = times && kf.time_s.has_value();
     time_s[k] = kf.time_s.value_or(0.0);
   }

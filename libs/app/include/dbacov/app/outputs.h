@@ -179,9 +179,8 @@ class GraphSink final : public OutputSink {
   bool sequence_ = true;
   PoseGraphBuilder builder_;
   std::unique_ptr<SequenceProblem> problem_;
-  /// --self-calibrate: the method, and the snapshots' sensor-reading variance factors.
-  std::string calibration_;
-  std::vector<double> sensor_scales_;
+  std::string calibration_;  ///< --self-calibrate: the method
+  bool depth_term_ = false;  ///< a snapshot's covariance had the depths' second-order term
 };
 
 /// snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,

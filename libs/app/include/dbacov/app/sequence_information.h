@@ -68,6 +68,7 @@ class SequenceProblem {
   struct Keyframe {
     Eigen::Matrix<double, 1, 7> pose_cw;
     std::vector<float> disp;
+    std::vector<float> disp_sens;  ///< RGB-D readings (empty: none)
     std::optional<double> time_s;
   };
   struct Edge {
@@ -75,6 +76,7 @@ class SequenceProblem {
   };
   int H_ = -1, W_ = -1;
   Eigen::Vector4d intrinsics_ = Eigen::Vector4d::Zero();
+  std::optional<Eigen::Matrix<double, 7, 1>> stereo_rig_;  ///< the first snapshot's that has one
   std::map<double, Keyframe> keyframes_;
   std::map<std::pair<double, double>, Edge> edges_;
   std::map<double, int> index_of_;  ///< tstamp → keyframe index in the snapshots
