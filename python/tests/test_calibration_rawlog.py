@@ -120,10 +120,13 @@ def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path
 
 
 def test_iterations_keyword_implies_the_self_calibration(shared_path):
-    # As --self-calibrate-iterations does on the command line (it was silently ignored alone).
-    it = dbacov.Covariance(shared_path, self_calibrate_iterations=2)
-    assert it.self_calibration is not None
-    assert it.self_calibration["method"] == "nuisance"
+    # As --self-calibrate-iterations does on the command line (it was silently ignored alone):
+    # it implies the self-calibration, and is refused with a method that takes one pass.
+    it = dbacov.Covariance(shared_path, self_calibrate_iterations=2, self_calibrate_method="vce")
+    assert it.self_calibration["method"] == "vce" and it.self_calibration["passes"] == 2
+    with pytest.raises(ValueError, match="iterations apply to the vce, score and autocorr "
+                                         "methods only, not nuisance"):
+        dbacov.Covariance(shared_path, self_calibrate_iterations=2)
     assert dbacov.Covariance(shared_path).self_calibration is None
 
 

@@ -18,7 +18,14 @@ namespace dbacov::app {
 SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
   SelfCalibrationOptions o;
   if (!method.empty()) o.method = parseSelfCalibrationMethod(method);
-  if (iterations > 0) o.iterations = iterations;
+  if (iterations > 0) {
+    // nuisance, sandwich and bootstrap take one pass: a number of them would be ignored.
+    if (o.method != SelfCalibrationMethod::Vce && o.method != SelfCalibrationMethod::Score &&
+        o.method != SelfCalibrationMethod::Autocorr)
+      throw std::invalid_argument(std::string("self-calibration iterations apply to the vce, ") +
+                                  "score and autocorr methods only, not " + toString(o.method));
+    o.iterations = iterations;
+  }
   if (nodes >= 0) {
     if (o.method != SelfCalibrationMethod::Nuisance && o.method != SelfCalibrationMethod::Bootstrap)
       throw std::invalid_argument(std::string("self-calibration nodes apply to the nuisance ") +
