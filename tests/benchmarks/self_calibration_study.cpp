@@ -164,6 +164,66 @@ struct Row {
 
 }  // namespace
 
+/// A --methods entry: raw, gt, or a method with suffixes (the header above), parsed.
+struct MethodSpec {
+  enum class State { Scenario, Solved, CalSolved } state = State::Scenario;
+  bool covariance_only = false;  ///< raw or gt (gt: the raw covariances, scaled by k)
+  SelfCalibrationOptions options;
+};
+
+/// Throws std::invalid_argument naming the entry when it is not one.
+MethodSpec parseMethod(const std::string& entry) {
+  MethodSpec spec;
+  std::string name = entry;
+  const auto take = [&name](const std::string& suffix) {
+    const std::size_t at = name.find(suffix);
+    if (at == std::string::npos) return false;
+    name.erase(at, suffix.size());
+    return true;
+  };
+  // "-solved" / "-calsolved": the state solved at the claimed / calibrated weights.
+  if (take("-calsolved"))
+    spec.state = MethodSpec::State::CalSolved;
+  else if (take("-solved"))
+    spec.state = MethodSpec::State::Solved;
+  if (name == "raw" || name == "gt") {
+    if (name == "gt" && spec.state != MethodSpec::State::Scenario)
+      // k is fitted on the scenario's states, not on solved ones
+      throw std::invalid_argument(entry + ": gt takes no suffix");
+    spec.covariance_only = true;
+    return spec;
+  }
+  SelfCalibrationOptions& c = spec.options;
+  // "-cov": the score statistic in the covariance metric; "-wild": the bootstrap's wild
+  // resampling; "-k0": the depths' term without its fourth-cumulant share; "-d0": without the
+  // depths' second-order noise term (on by default).
+  if (take("-cov")) c.score_metric = ScoreMetric::Covariance;
+  if (take("-wild")) c.bootstrap_resampling = BootstrapResampling::Wild;
+  if (take("-k0")) c.depth_noise_kurtosis = false;
+  if (take("-d0")) c.depth_noise = false;
+  // "-g<G>": nuisance with the affine field + a G × G tent spline (G = 0: affine only);
+  // "-it<N>": passes. Last in the name, one integer each.
+  const auto number = [&](const std::string& suffix, int* out) {
+    const std::size_t at = name.find(suffix);
+    if (at == std::string::npos) return;
+    const std::string digits = name.substr(at + suffix.size());
+    std::size_t used = 0;
+    try {
+      *out = std::stoi(digits, &used);
+    } catch (const std::logic_error&) {
+      used = std::string::npos;
+    }
+    if (used != digits.size())
+      throw std::invalid_argument(entry + ": '" + suffix + digits + "' needs an integer");
+    name.erase(at);
+  };
+  number("-it", &c.iterations);
+  number("-g", &c.nuisance_nodes);
+  c.method = parseSelfCalibrationMethod(name);  // names the known methods when it is none
+  c.validate();
+  return spec;
+}
+
 static int study(int argc, char** argv) {
   int runs = 20, calibration_runs = 10, first_run = 1000;
   std::string sources_arg = "white,white2x,wrongscale,field,affine,affine+outliers",
@@ -208,11 +268,15 @@ static int study(int argc, char** argv) {
     }
   }
   const std::vector<std::string> want_sources = split(sources_arg), methods = split(methods_arg);
-  for (const std::string& m : methods)
-    if (m.rfind("gt-", 0) == 0) {  // k is fitted on the scenario's states, not on solved ones
-      std::fprintf(stderr, "%s: gt takes no suffix\n", m.c_str());
+  std::map<std::string, MethodSpec> specs;  // every entry checked before any run
+  for (const std::string& m : methods) {
+    try {
+      specs[m] = parseMethod(m);
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "self_calibration_study: --methods: %s\n", e.what());
       return 2;
     }
+  }
   std::printf(
       "| source | method | ANEES abs | region | ANEES rel | region | 1σ | 2σ | NEES > χ²(0.95) "
       "| s/snapshot |\n|---|---|---|---|---|---|---|---|---|---|\n");
@@ -241,63 +305,30 @@ static int study(int argc, char** argv) {
         for (const std::string& m : methods) {
           const auto t0 = std::chrono::steady_clock::now();
           sim::EvaluationSamples x;
-          std::string name = m;
-          // "-solved" / "-calsolved": the state solved at the claimed / calibrated weights.
+          const MethodSpec& spec = specs.at(m);
           sim::SimulatedSnapshot solved;
           const sim::SimulatedSnapshot* at = &snap;
           DbaOptions oc = o;
-          // The solves' numerical errors name the snapshot, as evaluateSnapshot's do.
+          // The solves' errors name the snapshot and the entry, as evaluateSnapshot's do.
           try {
-            if (name.find("-calsolved") != std::string::npos) {
+            if (spec.state == MethodSpec::State::CalSolved) {
               solved = snap;
               oc = solveDbaAtCalibratedWeights(solved.snapshot, o).options;
               at = &solved;
-              name.erase(name.find("-calsolved"), 10);
-            } else if (name.find("-solved") != std::string::npos) {
+            } else if (spec.state == MethodSpec::State::Solved) {
               solved = snap;
               solveDba(solved.snapshot, o);
               at = &solved;
-              name.erase(name.find("-solved"), 7);
             }
           } catch (const NumericalError& e) {
             throw NumericalError(snap.snapshot.name() + ": " + m + ": " + e.what(), e.keyframes());
+          } catch (const std::exception& e) {
+            throw std::runtime_error(snap.snapshot.name() + ": " + m + ": " + e.what());
           }
-          if (name == "raw" || name == "gt") {
-            x = sim::evaluateSnapshot(*at, oc, label);
-          } else {
-            SelfCalibrationOptions c;
-            // "<method>-cov": the score statistic in the covariance metric; "-it<N>": passes.
-            if (name.find("-cov") != std::string::npos) {
-              c.score_metric = ScoreMetric::Covariance;
-              name.erase(name.find("-cov"), 4);
-            }
-            // "-wild": the bootstrap's wild resampling of the residuals.
-            if (name.find("-wild") != std::string::npos) {
-              c.bootstrap_resampling = BootstrapResampling::Wild;
-              name.erase(name.find("-wild"), 5);
-            }
-            // "-k0": the depths' term without its fourth-cumulant share.
-            if (name.find("-k0") != std::string::npos) {
-              c.depth_noise_kurtosis = false;
-              name.erase(name.find("-k0"), 3);
-            }
-            // "-d0": without the depths' second-order noise term (on by default).
-            if (name.find("-d0") != std::string::npos) {
-              c.depth_noise = false;
-              name.erase(name.find("-d0"), 3);
-            }
-            // "-g<G>": nuisance with the affine field + a G × G tent spline (G = 0: affine only).
-            if (name.find("-g") != std::string::npos) {
-              c.nuisance_nodes = std::atoi(name.substr(name.find("-g") + 2).c_str());
-              name.erase(name.find("-g"));
-            }
-            if (name.find("-it") != std::string::npos) {
-              c.iterations = std::atoi(name.substr(name.find("-it") + 3).c_str());
-              name.erase(name.find("-it"));
-            }
-            c.method = parseSelfCalibrationMethod(name);
-            x = sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive, &c);
-          }
+          x = spec.covariance_only
+                  ? sim::evaluateSnapshot(*at, oc, label)
+                  : sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive,
+                                          &spec.options);
           Row& r = rows[m];
           r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           ++r.snapshots;

@@ -102,7 +102,7 @@ TEST(ImageFlow, OpenCvFlowOnRenderedImagesIsCloseToTheTruthButNotExact) {
 }
 
 TEST(ImageFlow, ConfidenceFollowsTheForwardBackwardError) {
-  // flowTargets on fields written here: forward f = (1, 0.5), backward −f + δ, so that the
+  // flowTargets on fields written here: forward f = (1, 1), backward −f + δ, so that the
   // forward-backward error e = |δ| everywhere. w = 1 / (1 + (e/τ)²) up to e = 4τ, 0 beyond and
   // where f leaves the image; the target is the grid pixel f lands on.
   ImageFlowConfig c;
@@ -112,10 +112,10 @@ TEST(ImageFlow, ConfidenceFollowsTheForwardBackwardError) {
   const std::size_t HW = static_cast<std::size_t>(H) * W;
   for (const double e : {0.0, 0.5, 1.0, 1.9, 2.1}) {  // (not 4τ itself: float fields)
     SCOPED_TRACE(e);
-    FlowField fw{Hr, Wr, std::vector<float>(Hr * Wr, 1.0f), std::vector<float>(Hr * Wr, 0.5f)};
+    FlowField fw{Hr, Wr, std::vector<float>(Hr * Wr, 1.0f), std::vector<float>(Hr * Wr, 1.0f)};
     // δ = e · (0.6, 0.8)
     FlowField bw{Hr, Wr, std::vector<float>(Hr * Wr, static_cast<float>(-1.0 + 0.6 * e)),
-                 std::vector<float>(Hr * Wr, static_cast<float>(-0.5 + 0.8 * e))};
+                 std::vector<float>(Hr * Wr, static_cast<float>(-1.0 + 0.8 * e))};
     std::vector<float> target(2 * HW), weight(2 * HW);
     flowTargets(fw, bw, H, W, c, target.data(), weight.data());
     const double tau = c.fb_scale_px, expected = e <= 4 * tau ? 1 / (1 + (e / tau) * (e / tau)) : 0;
@@ -123,12 +123,12 @@ TEST(ImageFlow, ConfidenceFollowsTheForwardBackwardError) {
       for (int u = 0; u < W; ++u) {
         const std::size_t p = static_cast<std::size_t>(v) * W + u;
         const double x = 2 * u + 0.5, y = 2 * v + 0.5;  // the grid pixel's centre, rendered
-        const bool inside = x + 1.0 <= Wr - 1.0 && y + 0.5 <= Hr - 1.0;
+        const bool inside = x + 1.0 <= Wr - 1.0 && y + 1.0 <= Hr - 1.0;  // last column, row out
         EXPECT_NEAR(weight[p], inside ? expected : 0.0, 1e-6) << u << "," << v;
         EXPECT_EQ(weight[HW + p], weight[p]);
         if (weight[p] == 0) continue;
         EXPECT_NEAR(target[p], u + 0.5, 1e-6);  // (x + 1 − ½) / 2
-        EXPECT_NEAR(target[HW + p], v + 0.25, 1e-6);
+        EXPECT_NEAR(target[HW + p], v + 0.5, 1e-6);
       }
   }
 }
