@@ -134,7 +134,7 @@ struct PyCovariance {
 SelfCalibrationAppOptions selfCalibrationOptions(
     bool self_calibrate, std::optional<std::string> method, std::optional<int> iterations,
     std::optional<int> nodes, std::optional<int> replicates, std::optional<std::string> resampling,
-    std::optional<bool> depth_noise, bool converge) {
+    std::optional<bool> depth_noise, bool converge, std::optional<int> converge_iterations) {
   SelfCalibrationAppOptions o;
   o.enabled = self_calibrate || method.has_value() || iterations.has_value() || nodes.has_value() ||
               replicates.has_value() || resampling.has_value() || depth_noise.has_value();
@@ -164,7 +164,13 @@ SelfCalibrationAppOptions selfCalibrationOptions(
   }
   if (resampling) o.resampling = *resampling;
   if (depth_noise) o.depth_noise = *depth_noise ? "on" : "off";
-  o.converge = converge;
+  o.converge = converge || converge_iterations.has_value();
+  if (converge_iterations) {
+    if (*converge_iterations < 1 || *converge_iterations > 100000)  // CLI::Range(1, 100000)
+      throw std::invalid_argument("converge_iterations: " + std::to_string(*converge_iterations) +
+                                  " is not in 1..100000");
+    o.converge_iterations = *converge_iterations;
+  }
   o.options();  // throws std::invalid_argument for an unknown method or resampling
   return o;
 }
@@ -409,7 +415,8 @@ PYBIND11_MODULE(_dbacov, m) {
                        std::optional<int> self_calibrate_nodes,
                        std::optional<int> self_calibrate_replicates,
                        std::optional<std::string> self_calibrate_resampling,
-                       std::optional<bool> self_calibrate_depth_noise, bool converge) {
+                       std::optional<bool> self_calibrate_depth_noise, bool converge,
+                       std::optional<int> converge_iterations) {
              auto c = std::make_unique<PyCovariance>();
              c->options =
                  engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans,
@@ -418,7 +425,7 @@ PYBIND11_MODULE(_dbacov, m) {
              const SelfCalibrationAppOptions sc = selfCalibrationOptions(
                  self_calibrate, self_calibrate_method, self_calibrate_iterations,
                  self_calibrate_nodes, self_calibrate_replicates, self_calibrate_resampling,
-                 self_calibrate_depth_noise, converge);
+                 self_calibrate_depth_noise, converge, converge_iterations);
              c->depth_sigma = depth_sigma;
              py::gil_scoped_release release;
              const ThreadLimit limit(threads);
@@ -433,11 +440,13 @@ PYBIND11_MODULE(_dbacov, m) {
                if (sc.converge) {
                  auto solved = std::make_shared<Snapshot>(*snap);
                  if (sc.enabled) {
-                   c->reweighted = solveDbaAtCalibratedWeights(*solved, c->options);
+                   c->reweighted =
+                       solveDbaAtCalibratedWeights(*solved, c->options, kCalibratedMaxSolves,
+                                                   kCalibratedRatioTolerance, sc.convergeSolver());
                    c->solve = c->reweighted->solver;
                    c->options = c->reweighted->options;
                  } else {
-                   c->solve = solveDba(*solved, c->options);
+                   c->solve = solveDba(*solved, c->options, sc.convergeSolver());
                  }
                  snap = std::move(solved);
                }
@@ -466,7 +475,8 @@ PYBIND11_MODULE(_dbacov, m) {
            py::arg("self_calibrate_nodes") = py::none(),
            py::arg("self_calibrate_replicates") = py::none(),
            py::arg("self_calibrate_resampling") = py::none(),
-           py::arg("self_calibrate_depth_noise") = py::none(), py::arg("converge") = false)
+           py::arg("self_calibrate_depth_noise") = py::none(), py::arg("converge") = false,
+           py::arg("converge_iterations") = py::none())
       .def_property_readonly(
           "self_calibration",
           [](const PyCovariance& c) -> py::object {

@@ -86,6 +86,20 @@ def test_converge_then_self_calibrate_agrees_with_the_cli(shared_path, tmp_path)
     assert_agree(cov, cli_marginals(shared_path, tmp_path, "--self-calibrate", "--converge"))
 
 
+def test_converge_iterations_keyword_caps_the_solve_as_the_cli(shared_path, tmp_path):
+    # converge_iterations implies converge, as --converge-iterations does; the shared snapshot
+    # needs 7 iterations, so a cap of 2 leaves it unconverged (the state as the solve left it).
+    capped = dbacov.Covariance(shared_path, converge_iterations=2)
+    assert capped.converged is False
+    assert_agree(capped, cli_marginals(shared_path, tmp_path, "--converge-iterations", "2"))
+    full = dbacov.Covariance(shared_path, converge=True, converge_iterations=50)
+    assert full.converged is True
+    k = full.keyframes[-1]
+    assert np.abs(full.marginal(k) - capped.marginal(k)).max() > 0
+    with pytest.raises(ValueError, match="converge_iterations: 0 is not in 1..100000"):
+        dbacov.Covariance(shared_path, converge_iterations=0)
+
+
 def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path):
     with pytest.raises(ValueError) as e:
         dbacov.Covariance(shared_path, self_calibrate_method="bogus")

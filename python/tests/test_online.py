@@ -214,15 +214,17 @@ def test_command_line_runs_a_droid_script_with_the_hook(torch, sim_files, tmp_pa
     for s, f in enumerate(sim_files):
         assert lines[s] == printer(*frontend_objects(torch, f), s + 1)
     assert " t 1.650000 s: " in lines[-1]  # keyframe 11, frame 33, at 20 fps
-    # dba-covariance's self-calibration options reach Covariance as its keywords.
+    # dba-covariance's self-calibration options and --converge-iterations reach Covariance as its
+    # keywords.
     r = subprocess.run([sys.executable, ONLINE, "--weight-scale", "4", "--self-calibrate-method",
-                        "vce", "--self-calibrate-depth-noise", "off", "--",
-                        str(tmp_path / "demo.py"), *map(str, sim_files[:2])],
+                        "vce", "--self-calibrate-depth-noise", "off", "--converge-iterations",
+                        "3", "--", str(tmp_path / "demo.py"), *map(str, sim_files[:2])],
                        capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
     printer = dbacov_online.KeyframeSigmaPrinter(out=io.StringIO(), weight_scale=4,
                                                  self_calibrate_method="vce",
-                                                 self_calibrate_depth_noise=False)
+                                                 self_calibrate_depth_noise=False,
+                                                 converge_iterations=3)
     plain = dbacov_online.KeyframeSigmaPrinter(out=io.StringIO(), weight_scale=4)
     for s, f in enumerate(sim_files[:2]):
         line = r.stdout.splitlines()[s]

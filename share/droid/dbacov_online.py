@@ -154,6 +154,8 @@ def main(argv=None):
     p.add_argument("--self-calibrate-depth-noise", choices=["on", "off"])
     p.add_argument("--converge", action="store_true",
                    help="solve each update's DBA to the optimum of its factors first")
+    p.add_argument("--converge-iterations", type=int,
+                   help="the --converge solve's iteration cap (default 200); implies --converge")
     p.add_argument("--fps", type=float,
                    help="rate of the frames DROID is fed (after its --stride): prints the "
                         "keyframe time tstamp / fps")
@@ -174,6 +176,8 @@ def main(argv=None):
         options["self_calibrate_depth_noise"] = o.self_calibrate_depth_noise == "on"
     if o.converge:
         options["converge"] = True
+    if o.converge_iterations is not None:
+        options["converge_iterations"] = o.converge_iterations
     times = None if o.fps is None else np.arange(1_000_000) / o.fps
     install(KeyframeSigmaPrinter(image_times_s=times, digits=o.digits, **options))
     sys.argv = script

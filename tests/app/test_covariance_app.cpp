@@ -12,6 +12,7 @@
 #include "dbacov/core/covariance.h"
 #include "dbacov/io/npy.h"
 #include "dbacov/io/snapshot_npz.h"
+#include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "fixtures.h"
 #include "temp_dir.h"
@@ -302,6 +303,55 @@ TEST(CovarianceApp, SelfCalibrationSummaryLineAndTheFarFromTheOptimumWarning) {
                        "dba-covariance: self-calibration iterations apply to the vce, "
                        "score and autocorr methods only, not nuisance\n"))
       << implied.err;
+}
+
+// --converge's iteration cap: kOptimumSolveIterations (the simulator's) by default, not the
+// solver's 50; a solve that reaches it is reported with the cap and how to raise it. The tiny
+// snapshot's flow noise (drawn at weight scale 4: σ = 0.5 px at confidence 1 on a 10-px-wide image,
+// many inverse depths pushed to their bound) makes a badly curved cost that Levenberg-Marquardt
+// needs over 200 iterations for (the cost's scale, the preset's, does not change its path).
+TEST(CovarianceApp, ConvergeIterationsCapTheSolveAndAReachedCapIsReported) {
+  testing::TempDir dir;
+  const std::string in = dir.file("a.npz");
+  writeSynthetic(in, 1, 0);
+  auto csv = [&](const std::vector<std::string>& extra, const std::string& out) {
+    std::vector<std::string> args = {"-i", in, "--csv", dir.file(out)};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run(args);
+  };
+  const AppResult capped = csv({"--converge-iterations", "5"}, "c5.csv");  // implies --converge
+  ASSERT_EQ(capped.code, 0) << capped.err;
+  EXPECT_TRUE(contains(capped.err, "dba-covariance: warning: " + in +
+                                       " (snapshot 0): --converge: the DBA solve did not "
+                                       "converge (5 iterations ("))
+      << capped.err;
+  EXPECT_TRUE(contains(capped.err, ", max iterations); --converge-iterations raises the cap of 5"))
+      << capped.err;
+  EXPECT_TRUE(contains(capped.err, "dba-covariance: --converge: 0 snapshots solved to convergence"))
+      << capped.err;
+  const AppResult solved = csv({"--converge", "--converge-iterations", "1000"}, "c1000.csv");
+  ASSERT_EQ(solved.code, 0) << solved.err;
+  EXPECT_TRUE(contains(solved.err, "dba-covariance: --converge: 1 snapshots solved to convergence"))
+      << solved.err;
+  EXPECT_FALSE(contains(solved.err, "warning")) << solved.err;
+  // The default cap is kOptimumSolveIterations: the same output as that cap given, another than
+  // the solver's own default of 50 (which does not converge here either).
+  const AppResult by_default = csv({"--converge"}, "cd.csv");
+  const AppResult fifty = csv({"--converge-iterations", "50"}, "c50.csv");
+  const AppResult given =
+      csv({"--converge-iterations", std::to_string(kOptimumSolveIterations)}, "cg.csv");
+  ASSERT_EQ(by_default.code, 0) << by_default.err;
+  ASSERT_EQ(fifty.code, 0) << fifty.err;
+  ASSERT_EQ(given.code, 0) << given.err;
+  EXPECT_TRUE(contains(fifty.err, "raises the cap of 50")) << fifty.err;
+  EXPECT_EQ(readFile(dir.file("cd.csv")), readFile(dir.file("cg.csv")));
+  EXPECT_NE(readFile(dir.file("cd.csv")), readFile(dir.file("c50.csv")));
+  EXPECT_NE(readFile(dir.file("c5.csv")), readFile(dir.file("c1000.csv")));
+  for (const char* bad : {"0", "-3", "many"}) {
+    const AppResult r = csv({"--converge-iterations", bad}, "bad.csv");
+    EXPECT_EQ(r.code, 2) << bad << "\n" << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("bad.csv"))) << bad;
+  }
 }
 
 TEST(CovarianceApp, MissingInputsFailWithoutTouchingTheOutput) {

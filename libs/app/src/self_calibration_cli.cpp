@@ -57,6 +57,12 @@ SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
   return o;
 }
 
+DbaSolverOptions SelfCalibrationAppOptions::convergeSolver() const {
+  DbaSolverOptions o;
+  o.max_iterations = converge_iterations > 0 ? converge_iterations : kOptimumSolveIterations;
+  return o;
+}
+
 namespace detail {
 
 void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool outputs) {
@@ -127,6 +133,13 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
                "--self-calibrate, stereo edges and RGB-D readings are re-weighted at their "
                "calibrated variance ratio to the flow and the DBA re-solved until it settles "
                "(at mis-claimed weights the solved state is biased)");
+  cli.add_option("--converge-iterations", o.converge_iterations,
+                 "The --converge solve's iteration cap (default " +
+                     std::to_string(kOptimumSolveIterations) +
+                     "); a solve that reaches it is reported and its state kept; implies "
+                     "--converge")
+      ->check(CLI::Range(1, 100000))
+      ->each([&o](const std::string&) { o.converge = true; });
 }
 
 SelfCalibrationRun::SelfCalibrationRun(const SelfCalibrationCli& cli)
@@ -164,15 +177,20 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   if (cli_.converge) {
     DbaSolverSummary sum;
     if (cli_.enabled) {
-      reweighted = solveDbaAtCalibratedWeights(s, o);
+      reweighted = solveDbaAtCalibratedWeights(s, o, kCalibratedMaxSolves,
+                                               kCalibratedRatioTolerance, cli_.convergeSolver());
       oc = reweighted->options;
       sum = reweighted->solver;
     } else {
-      sum = solveDba(s, o);
+      sum = solveDba(s, o, cli_.convergeSolver());
     }
     converged = sum.converged();
     if (!converged && warning)
-      *warning = name + ": --converge: the DBA solve did not converge (" + sum.brief() + ")";
+      *warning = name + ": --converge: the DBA solve did not converge (" + sum.brief() + ")" +
+                 (sum.termination == DbaTermination::MaxIterations
+                      ? "; --converge-iterations raises the cap of " +
+                            std::to_string(cli_.convergeSolver().max_iterations)
+                      : std::string());
     else if (reweighted && !reweighted->settled && warning)
       *warning = name + ": --converge: the depth-only factors' variance ratios did not settle in " +
                  std::to_string(reweighted->solves) + " solves (still " +

@@ -86,8 +86,11 @@ struct CalibratedSolve {
 /// Solves `snapshot` (its state and, for stereo edges, its weights are overwritten) as above.
 /// Throws what solveDba and selfCalibrate throw, and std::invalid_argument for max_solves < 1 or a
 /// tolerance not in (0, 1).
+inline constexpr int kCalibratedMaxSolves = 8;
+inline constexpr double kCalibratedRatioTolerance = 0.02;
 CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& snapshot, const DbaOptions& options,
-                                            int max_solves = 8, double tolerance = 0.02,
+                                            int max_solves = kCalibratedMaxSolves,
+                                            double tolerance = kCalibratedRatioTolerance,
                                             const DbaSolverOptions& solver = {});
 
 }  // namespace dbacov

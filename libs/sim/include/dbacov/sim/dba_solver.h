@@ -76,6 +76,12 @@ struct DbaSolverOptions {
   void validate() const;
 };
 
+/// The iteration cap of a solve to the optimum (dba-covariance --converge, the simulator): at
+/// DROID-like signal-to-noise the DBA cost is badly curved and inverse depths run into their bound,
+/// where Levenberg-Marquardt zig-zags along a curved valley and may need several times its default
+/// 50 iterations (a simulated sliding-window snapshot takes up to 49, a tiny 8×10 one over 200).
+inline constexpr int kOptimumSolveIterations = 200;
+
 enum class DbaTermination {
   GradientTolerance,
   FunctionTolerance,

@@ -109,11 +109,11 @@ inline CovisibilityConfig defaultScenarioEdges() {
   return e;
 }
 
-/// The solver of the simulation: up to 200 iterations (DROID-like signal-to-noise makes the DBA
-/// cost badly curved; Levenberg-Marquardt then needs more than its default 50 to converge).
+/// The solver of the simulation: up to kOptimumSolveIterations (DROID-like signal-to-noise makes
+/// the DBA cost badly curved; Levenberg-Marquardt then needs more than its default 50 to converge).
 inline DbaSolverOptions defaultScenarioSolver() {
   DbaSolverOptions o;
-  o.max_iterations = 200;
+  o.max_iterations = kOptimumSolveIterations;
   return o;
 }
 
