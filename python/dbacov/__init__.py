@@ -77,7 +77,8 @@ def Covariance(snapshot, preset="droid", **options):
     | False: the depths' second-order noise term; not with bootstrap); each implies
     self_calibrate. Bootstrap adds
     bootstrap_scale, bootstrap_replicates and bootstrap_failed to the dict;
-    converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one);
+    converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one;
+    converge_iterations, 1..100000, default 200, caps that solve and implies converge=True);
     with self_calibrate=True too, stereo edges and RGB-D readings are re-weighted at their
     calibrated variance ratio to the flow and the DBA re-solved until the ratios settle
     (.reweighting: None or a dict of solves, settled, last_ratio, unmeasured, sensor_depth_factor,

@@ -98,6 +98,44 @@ def test_converge_iterations_keyword_caps_the_solve_as_the_cli(shared_path, tmp_
     assert np.abs(full.marginal(k) - capped.marginal(k)).max() > 0
     with pytest.raises(ValueError, match="converge_iterations: 0 is not in 1..100000"):
         dbacov.Covariance(shared_path, converge_iterations=0)
+    # With self_calibrate the cap reaches the solve at the calibrated weights too (one solve:
+    # the shared snapshot has no depth-only factors).
+    assert dbacov.Covariance(shared_path, self_calibrate=True,
+                             converge_iterations=3).converged is False
+    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "c.csv"), "--self-calibrate",
+                "--converge-iterations", "3")
+    assert r.returncode == 0, r.stderr
+    assert "it reached the cap of 3 iterations (--converge-iterations raises it))" in r.stderr
+
+
+def test_converge_iterations_cap_the_re_solves_at_the_calibrated_weights(tmp_path):
+    # A simulated stereo snapshot (the claims true): the first solve converges within 2
+    # iterations, the re-solve at the calibrated stereo weights does not, so its state is not
+    # used and the warning names the cap; Python and the CLI agree.
+    if not os.path.exists(SIMUL):
+        pytest.fail(f"simul-dba not found: {SIMUL!r} (DBACOV_SIMUL)")
+    out = tmp_path / "stereo"
+    r = subprocess.run([SIMUL, "-o", str(out), "--seed", "1", "--height", "24", "--width", "32",
+                        "--keyframes", "6", "--mode", "whole", "--weight-scale", "100",
+                        "--sensor", "stereo", "--gauge", "droid", "-q"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    path = str(sorted(out.glob("snapshot_*.npz"))[0])
+    claims = ["--weight-scale", "100", "--gauge", "droid"]
+    cov = dbacov.Covariance(path, weight_scale=100, gauge="droid", self_calibrate=True,
+                            converge_iterations=2)
+    rw = cov.reweighting
+    assert cov.converged is True and rw["solves"] == 2 and not rw["settled"]
+    assert rw["failed_solve"].startswith("2 iterations (") and \
+        rw["failed_solve"].endswith(", max iterations")
+    r = run_cli("-i", path, "--csv", str(tmp_path / "s.csv"), "--self-calibrate",
+                "--converge-iterations", "2", *claims)
+    assert r.returncode == 0, r.stderr
+    assert ("; the last re-solve did not converge (2 iterations (" in r.stderr and
+            ", max iterations; it reached the cap of 2 iterations (--converge-iterations raises "
+            "it)): the last converged state is kept)" in r.stderr), r.stderr
+    assert_agree(cov, cli_marginals(path, tmp_path, "--self-calibrate", "--converge-iterations",
+                                    "2", *claims))
 
 
 def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path):

@@ -232,3 +232,12 @@ def test_command_line_runs_a_droid_script_with_the_hook(torch, sim_files, tmp_pa
         assert line != plain(*frontend_objects(torch, f), s + 1)
     r = subprocess.run([sys.executable, ONLINE], capture_output=True, text=True, env=env)
     assert r.returncode == 2 and "give DROID-SLAM's script after --" in r.stderr
+    # Out-of-range numbers are refused before DROID runs, not per update after it.
+    for option, value, message in (("--converge-iterations", "0", "1..100000"),
+                                   ("--self-calibrate-iterations", "21", "1..20"),
+                                   ("--self-calibrate-nodes", "1", "0 (affine) or 2..8"),
+                                   ("--self-calibrate-replicates", "3", "4..100000")):
+        r = subprocess.run([sys.executable, ONLINE, option, value, "--", str(tmp_path / "demo.py"),
+                            *map(str, sim_files[:1])], capture_output=True, text=True, env=env)
+        assert r.returncode == 2 and r.stdout == "", r.stderr
+        assert f"{option}: {value} is not in {message}" in r.stderr

@@ -161,6 +161,17 @@ def main(argv=None):
                         "keyframe time tstamp / fps")
     p.add_argument("--digits", type=int, default=10)
     o = p.parse_args(ours)
+    # The ranges dba-covariance checks (and Covariance would only report per update, as a
+    # sigma-less line, after DROID has run): refused here, before DROID starts.
+    for key, ok, what in (("self_calibrate_iterations", lambda n: 1 <= n <= 20, "1..20"),
+                          ("self_calibrate_nodes", lambda n: n == 0 or 2 <= n <= 8,
+                           "0 (affine) or 2..8"),
+                          ("self_calibrate_replicates", lambda n: 4 <= n <= 100000,
+                           "4..100000"),
+                          ("converge_iterations", lambda n: 1 <= n <= 100000, "1..100000")):
+        value = getattr(o, key)
+        if value is not None and not ok(value):
+            p.error(f"--{key.replace('_', '-')}: {value} is not in {what}")
     if not script:
         p.error("give DROID-SLAM's script after --, e.g. -- demo.py --imagedir=... --calib=...")
     options = {"preset": o.preset}

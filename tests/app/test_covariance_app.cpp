@@ -325,7 +325,9 @@ TEST(CovarianceApp, ConvergeIterationsCapTheSolveAndAReachedCapIsReported) {
                                        " (snapshot 0): --converge: the DBA solve did not "
                                        "converge (5 iterations ("))
       << capped.err;
-  EXPECT_TRUE(contains(capped.err, ", max iterations); --converge-iterations raises the cap of 5"))
+  EXPECT_TRUE(contains(capped.err,
+                       ", max iterations; it reached the cap of 5 iterations "
+                       "(--converge-iterations raises it))\n"))
       << capped.err;
   EXPECT_TRUE(contains(capped.err, "dba-covariance: --converge: 0 snapshots solved to convergence"))
       << capped.err;
@@ -343,7 +345,9 @@ TEST(CovarianceApp, ConvergeIterationsCapTheSolveAndAReachedCapIsReported) {
   ASSERT_EQ(by_default.code, 0) << by_default.err;
   ASSERT_EQ(fifty.code, 0) << fifty.err;
   ASSERT_EQ(given.code, 0) << given.err;
-  EXPECT_TRUE(contains(fifty.err, "raises the cap of 50")) << fifty.err;
+  EXPECT_TRUE(contains(fifty.err, "it reached the cap of 50 iterations")) << fifty.err;
+  const AppResult one = csv({"--converge-iterations", "1"}, "c1.csv");
+  EXPECT_TRUE(contains(one.err, "it reached the cap of 1 iteration (")) << one.err;
   EXPECT_EQ(readFile(dir.file("cd.csv")), readFile(dir.file("cg.csv")));
   EXPECT_NE(readFile(dir.file("cd.csv")), readFile(dir.file("c50.csv")));
   EXPECT_NE(readFile(dir.file("c5.csv")), readFile(dir.file("c1000.csv")));

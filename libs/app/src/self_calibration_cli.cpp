@@ -185,23 +185,30 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
       sum = solveDba(s, o, cli_.convergeSolver());
     }
     converged = sum.converged();
+    // A solve stopped by the cap says which cap and how to raise it.
+    const auto cap = [&](const DbaSolverSummary& solve) {
+      const int n = cli_.convergeSolver().max_iterations;
+      return solve.termination == DbaTermination::MaxIterations
+                 ? "; it reached the cap of " + std::to_string(n) +
+                       (n == 1 ? " iteration" : " iterations") +
+                       " (--converge-iterations raises it)"
+                 : std::string();
+    };
     if (!converged && warning)
-      *warning = name + ": --converge: the DBA solve did not converge (" + sum.brief() + ")" +
-                 (sum.termination == DbaTermination::MaxIterations
-                      ? "; --converge-iterations raises the cap of " +
-                            std::to_string(cli_.convergeSolver().max_iterations)
-                      : std::string());
+      *warning =
+          name + ": --converge: the DBA solve did not converge (" + sum.brief() + cap(sum) + ")";
     else if (reweighted && !reweighted->settled && warning)
-      *warning = name + ": --converge: the depth-only factors' variance ratios did not settle in " +
-                 std::to_string(reweighted->solves) + " solves (still " +
-                 (reweighted->unmeasured ? "over-weighted beyond measure, at least " +
-                                               number(reweighted->last_ratio) + "x off"
-                                         : number(reweighted->last_ratio) + "x off") +
-                 (reweighted->failed_solve ? "; the last re-solve did not converge (" +
-                                                 reweighted->failed_solve->brief() +
-                                                 "): the last converged state is kept"
-                                           : std::string()) +
-                 ")";
+      *warning =
+          name + ": --converge: the depth-only factors' variance ratios did not settle in " +
+          std::to_string(reweighted->solves) + " solves (still " +
+          (reweighted->unmeasured ? "over-weighted beyond measure, at least " +
+                                        number(reweighted->last_ratio) + "x off"
+                                  : number(reweighted->last_ratio) + "x off") +
+          (reweighted->failed_solve
+               ? "; the last re-solve did not converge (" + reweighted->failed_solve->brief() +
+                     cap(*reweighted->failed_solve) + "): the last converged state is kept"
+               : std::string()) +
+          ")";
   }
   if (!cli_.enabled) {
     std::lock_guard<std::mutex> lock(mutex_);

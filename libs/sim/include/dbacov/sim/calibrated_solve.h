@@ -83,11 +83,13 @@ struct CalibratedSolve {
   bool unmeasured = false;
 };
 
+/// The defaults of solveDbaAtCalibratedWeights: at most 8 solves, until every ratio is within 2 %.
+inline constexpr int kCalibratedMaxSolves = 8;
+inline constexpr double kCalibratedRatioTolerance = 0.02;
+
 /// Solves `snapshot` (its state and, for stereo edges, its weights are overwritten) as above.
 /// Throws what solveDba and selfCalibrate throw, and std::invalid_argument for max_solves < 1 or a
 /// tolerance not in (0, 1).
-inline constexpr int kCalibratedMaxSolves = 8;
-inline constexpr double kCalibratedRatioTolerance = 0.02;
 CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& snapshot, const DbaOptions& options,
                                             int max_solves = kCalibratedMaxSolves,
                                             double tolerance = kCalibratedRatioTolerance,
