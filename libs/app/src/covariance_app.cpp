@@ -111,7 +111,7 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
   cli.add_option(
          "--threads", opt.threads,
          "Threads for independent snapshots and for each snapshot's linearization (0 = all cores)")
-      ->check(CLI::Range(0, 4096));
+      ->check(detail::integerIn(0, 4096));
   cli.add_flag("-q,--quiet", opt.quiet, "No progress display and no summary line");
   bool fail_fast = false;
   detail::addFailurePolicyOptions(cli, fail_fast);

@@ -7,6 +7,23 @@
 
 namespace dbacov::app::detail {
 
+CLI::Validator integerIn(long long lo, long long hi) {
+  const std::string range = std::to_string(lo) + ".." + std::to_string(hi);
+  return CLI::Validator(
+      [lo, hi, range](std::string& text) -> std::string {
+        long long v = 0;
+        try {
+          std::size_t used = 0;
+          v = std::stoll(text, &used);
+          if (used != text.size()) throw std::invalid_argument(text);
+        } catch (const std::logic_error&) {  // not a number, trailing text, or beyond long long
+          return "'" + text + "' is not an integer in " + range;
+        }
+        return v < lo || v > hi ? text + " is not in " + range : std::string();
+      },
+      "");  // no annotation in --help, as the ranges CLI::Range gave (cli_common.cpp)
+}
+
 template <class E>
 CLI::Validator enumValidator() {
   // The message of parseEnum (the enum table's "unknown <what> 'x', expected a, b or c"), as the

@@ -13,6 +13,7 @@
 #include "dbacov/core/threads.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/sim/monte_carlo.h"
+#include "engine_cli.h"
 #include "path_checks.h"
 #include "self_calibration_cli.h"
 
@@ -284,7 +285,7 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
       ->check(CLI::IsMember({"consecutive", "all"}));
   cli.add_option("--monte-carlo", o.monte_carlo,
                  "Monte Carlo: N noise draws of the simulated scenario")
-      ->check(CLI::Range(1, 1000000));
+      ->check(detail::integerIn(1, 1000000));
   cli.add_option("--first-run", o.first_run,
                  "Monte Carlo: index of the first noise draw (default 0)")
       ->check(CLI::NonNegativeNumber);

@@ -11,6 +11,7 @@
 #include "dbacov/app/extra_constraints.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/mrpt/bridge.h"
+#include "engine_cli.h"
 #include "graph_input_checks.h"
 #include "path_checks.h"
 
@@ -144,7 +145,7 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
   cli.add_option("--tum", tum_path, "Write the optimized trajectory as a TUM file");
   cli.add_option("--label", label, "sensorLabel of the rawlog observations");
   cli.add_option("--max-iterations", max_iterations, "Levenberg-Marquardt iterations")
-      ->check(CLI::Range(1, 100000));
+      ->check(detail::integerIn(1, 100000));
   cli.add_flag("--identity-information", identity,
                "Replace every information matrix by the identity (what MRPT's graph-slam app does "
                "in 3D), for comparison");

@@ -10,6 +10,7 @@
 #include "dbacov/core/keyframe_times.h"
 #include "dbacov/sim/scenario_json.h"
 #include "dbacov/sim/scenario_schema.h"
+#include "engine_cli.h"
 
 namespace dbacov::app {
 namespace {
@@ -45,7 +46,7 @@ void ScenarioOptions::add(CLI::App& cli) {
     if (flag == "--keyframes")
       cli.add_option("--snapshots", snapshots,
                      "Sliding window: number of snapshots (keyframes = snapshots + window - 1)")
-          ->check(CLI::Range(1, 1000000))
+          ->check(detail::integerIn(1, 1000000))
           ->group(g);
   }
   cli.add_flag("--no-solve", no_solve,

@@ -76,7 +76,7 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
       ->each([&o](const std::string&) { o.enabled = true; });
   cli.add_option("--self-calibrate-iterations", o.iterations,
                  "Reweighting passes of vce/score/autocorr (default 1); implies --self-calibrate")
-      ->check(CLI::Range(1, 20))
+      ->check(integerIn(1, 20))
       ->each([&o](const std::string&) { o.enabled = true; });
   cli.add_option("--self-calibrate-nodes", o.nodes,
                  "nuisance: the per-edge flow error field, 0 = affine, G = affine + G x G "
@@ -107,7 +107,7 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
                  "bootstrap: re-solved replicates of each snapshot (default " +
                      std::to_string(SelfCalibrationOptions{}.bootstrap_replicates) +
                      "); implies --self-calibrate")
-      ->check(CLI::Range(4, 100000))
+      ->check(integerIn(4, 100000))
       ->each([&o](const std::string&) { o.enabled = true; });
   cli.add_option("--self-calibrate-resampling", o.resampling,
                  "bootstrap: the replicates' white noise, " + enumNameList<BootstrapResampling>() +
@@ -138,7 +138,7 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
                      std::to_string(kOptimumSolveIterations) +
                      "); a solve that reaches it is reported and its state kept; implies "
                      "--converge")
-      ->check(CLI::Range(1, 100000))
+      ->check(integerIn(1, 100000))
       ->each([&o](const std::string&) { o.converge = true; });
 }
 
