@@ -174,6 +174,25 @@ TEST(SimulApp, BadUsageAndFailuresAreReported) {
   r = simul({"-o", dir.path(), "--window", "9", "--keyframes", "4"});
   EXPECT_EQ(r.code, 2);
   EXPECT_TRUE(contains(r.err, "window")) << r.err;
+  // Numbers out of their range, or no numbers, are named as such (nothing written).
+  for (const auto& [args, message] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--height", "1"}, "simul-dba: --height: 1 is not in 2..4096\n"},
+           {{"--width", "2.5"}, "simul-dba: --width: '2.5' is not an integer in 2..4096\n"},
+           {{"--snapshots", "many"},
+            "simul-dba: --snapshots: 'many' is not an integer in "
+            "1..1000000\n"},
+           {{"--overlap-threshold", "2"}, "simul-dba: --overlap-threshold: 2 is not in [0, 1]\n"},
+           {{"--overlap-threshold", "nan"},
+            "simul-dba: --overlap-threshold: nan is not in [0, 1]\n"},
+           {{"--overlap-threshold", "x"},
+            "simul-dba: --overlap-threshold: 'x' is not a number in [0, 1]\n"}}) {
+    std::vector<std::string> full = {"-o", dir.file("ranges")};
+    full.insert(full.end(), args.begin(), args.end());
+    r = simul(full);
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_TRUE(contains(r.err, message)) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("ranges")));
+  }
   // An unknown flow estimator, before anything is written (this test program registers none).
   r = simul({"-o", dir.file("flow"), "--flow", "bogus"});
   EXPECT_EQ(r.code, 2);

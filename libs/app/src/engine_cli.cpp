@@ -1,5 +1,7 @@
 #include "engine_cli.h"
 
+#include <sstream>
+
 #include <CLI/CLI.hpp>
 
 #include "dbacov/app/outputs.h"
@@ -22,6 +24,25 @@ CLI::Validator integerIn(long long lo, long long hi) {
         return v < lo || v > hi ? text + " is not in " + range : std::string();
       },
       "");  // no annotation in --help, as the ranges CLI::Range gave (cli_common.cpp)
+}
+
+CLI::Validator numberIn(double lo, double hi) {
+  std::ostringstream os;
+  os << "[" << lo << ", " << hi << "]";
+  const std::string range = os.str();
+  return CLI::Validator(
+      [lo, hi, range](std::string& text) -> std::string {
+        double v = 0;
+        try {
+          std::size_t used = 0;
+          v = std::stod(text, &used);
+          if (used != text.size()) throw std::invalid_argument(text);
+        } catch (const std::logic_error&) {
+          return "'" + text + "' is not a number in " + range;
+        }
+        return v >= lo && v <= hi ? std::string() : text + " is not in " + range;  // NaN too
+      },
+      "");
 }
 
 template <class E>

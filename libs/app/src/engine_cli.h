@@ -31,6 +31,8 @@ CLI::Option* addWeightScaleOption(CLI::App& cli, std::optional<double>& value,
 /// An integer in lo..hi. Other text fails with "'x' is not an integer" or "x is not in lo..hi"
 /// (the Python module's wording), where CLI::Range said "Value x not in range" of any text.
 CLI::Validator integerIn(long long lo, long long hi);
+/// A number in [lo, hi]: "'x' is not a number" or "x is not in [lo, hi]".
+CLI::Validator numberIn(double lo, double hi);
 
 /// Accepts the names of enum E (enum_names.h); an other name fails with parseEnum's message, the
 /// one the library and the Python module give ("unknown gauge 'x', expected two-pose, ...").

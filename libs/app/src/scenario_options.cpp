@@ -18,13 +18,13 @@ namespace {
 /// The checks the command line applies to a row's text before the row parses it (ranges keep
 /// sizes within what a grid and a trajectory allow).
 void addChecks(CLI::Option* o, const std::string& flag) {
-  static const std::map<std::string, std::pair<double, double>> ranges = {
-      {"--keyframes", {2, 1000000}},  {"--window", {2, 100000}},
-      {"--height", {2, 4096}},        {"--width", {2, 4096}},
-      {"--edge-radius", {1, 100000}}, {"--overlap-threshold", {0.0, 1.0}},
+  static const std::map<std::string, std::pair<long long, long long>> integers = {
+      {"--keyframes", {2, 1000000}}, {"--window", {2, 100000}},      {"--height", {2, 4096}},
+      {"--width", {2, 4096}},        {"--edge-radius", {1, 100000}},
   };
-  if (const auto r = ranges.find(flag); r != ranges.end())
-    o->check(CLI::Range(r->second.first, r->second.second));
+  if (const auto r = integers.find(flag); r != integers.end())
+    o->check(detail::integerIn(r->second.first, r->second.second));
+  if (flag == "--overlap-threshold") o->check(detail::numberIn(0.0, 1.0));
   if (flag == "--weight-scale" || flag == "--fps") o->check(CLI::PositiveNumber);
 }
 
