@@ -140,7 +140,7 @@ SelfCalibrationAppOptions selfCalibrationOptions(
               replicates.has_value() || resampling.has_value() || depth_noise.has_value();
   if (method) o.method = *method;
   if (iterations) {
-    if (*iterations < 1 || *iterations > 20)  // dba-covariance's CLI::Range(1, 20)
+    if (*iterations < 1 || *iterations > 20)  // dba-covariance's integerIn(1, 20)
       throw std::invalid_argument("self_calibrate_iterations: " + std::to_string(*iterations) +
                                   " is not in 1..20");
     o.iterations = *iterations;
@@ -157,7 +157,7 @@ SelfCalibrationAppOptions selfCalibrationOptions(
     o.nodes = *nodes;
   }
   if (replicates) {
-    if (*replicates < 4 || *replicates > 100000)  // dba-covariance's CLI::Range(4, 100000)
+    if (*replicates < 4 || *replicates > 100000)  // dba-covariance's integerIn(4, 100000)
       throw std::invalid_argument("self_calibrate_replicates: " + std::to_string(*replicates) +
                                   " is not in 4..100000");
     o.replicates = *replicates;
@@ -166,7 +166,8 @@ SelfCalibrationAppOptions selfCalibrationOptions(
   if (depth_noise) o.depth_noise = *depth_noise ? "on" : "off";
   o.converge = converge || converge_iterations.has_value();
   if (converge_iterations) {
-    if (*converge_iterations < 1 || *converge_iterations > 100000)  // CLI::Range(1, 100000)
+    if (*converge_iterations < 1 ||
+        *converge_iterations > 100000)  // dba-covariance's integerIn(1, 100000)
       throw std::invalid_argument("converge_iterations: " + std::to_string(*converge_iterations) +
                                   " is not in 1..100000");
     o.converge_iterations = *converge_iterations;
