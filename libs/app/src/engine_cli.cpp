@@ -1,5 +1,6 @@
 #include "engine_cli.h"
 
+#include <optional>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -9,19 +10,33 @@
 
 namespace dbacov::app::detail {
 
+namespace {
+/// The whole text read by `read` (std::stoll, std::stod: leading blanks allowed, nothing after),
+/// or nothing when it is no such number or beyond the type's range.
+template <class T, class Read>
+std::optional<T> readWhole(const std::string& text, Read read) {
+  try {
+    std::size_t used = 0;
+    const T v = read(text, &used);
+    if (used == text.size()) return v;
+  } catch (const std::logic_error&) {
+  }
+  return std::nullopt;
+}
+}  // namespace
+
+std::optional<long long> parseInteger(const std::string& text) {
+  return readWhole<long long>(
+      text, [](const std::string& t, std::size_t* used) { return std::stoll(t, used); });
+}
+
 CLI::Validator integerIn(long long lo, long long hi) {
   const std::string range = std::to_string(lo) + ".." + std::to_string(hi);
   return CLI::Validator(
       [lo, hi, range](std::string& text) -> std::string {
-        long long v = 0;
-        try {
-          std::size_t used = 0;
-          v = std::stoll(text, &used);
-          if (used != text.size()) throw std::invalid_argument(text);
-        } catch (const std::logic_error&) {  // not a number, trailing text, or beyond long long
-          return "'" + text + "' is not an integer in " + range;
-        }
-        return v < lo || v > hi ? text + " is not in " + range : std::string();
+        const std::optional<long long> v = parseInteger(text);
+        if (!v) return "'" + text + "' is not an integer in " + range;
+        return *v < lo || *v > hi ? text + " is not in " + range : std::string();
       },
       "");  // no annotation in --help, as the ranges CLI::Range gave (cli_common.cpp)
 }
@@ -32,15 +47,10 @@ CLI::Validator numberIn(double lo, double hi) {
   const std::string range = os.str();
   return CLI::Validator(
       [lo, hi, range](std::string& text) -> std::string {
-        double v = 0;
-        try {
-          std::size_t used = 0;
-          v = std::stod(text, &used);
-          if (used != text.size()) throw std::invalid_argument(text);
-        } catch (const std::logic_error&) {
-          return "'" + text + "' is not a number in " + range;
-        }
-        return v >= lo && v <= hi ? std::string() : text + " is not in " + range;  // NaN too
+        const std::optional<double> v = readWhole<double>(
+            text, [](const std::string& t, std::size_t* used) { return std::stod(t, used); });
+        if (!v) return "'" + text + "' is not a number in " + range;
+        return *v >= lo && *v <= hi ? std::string() : text + " is not in " + range;  // NaN too
       },
       "");
 }

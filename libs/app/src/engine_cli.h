@@ -28,6 +28,10 @@ void addCovarianceOptions(CLI::App& cli, CovarianceOptions& o);
 CLI::Option* addWeightScaleOption(CLI::App& cli, std::optional<double>& value,
                                   const std::string& default_text);
 
+/// The whole text as an integer (leading blanks allowed, nothing after), or nothing when it is
+/// not one or does not fit a long long.
+std::optional<long long> parseInteger(const std::string& text);
+
 /// An integer in lo..hi. Other text fails with "'x' is not an integer" or "x is not in lo..hi"
 /// (the Python module's wording), where CLI::Range said "Value x not in range" of any text.
 CLI::Validator integerIn(long long lo, long long hi);

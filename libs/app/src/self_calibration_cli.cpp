@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -86,14 +87,11 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {
             // The core's own check and message (SelfCalibrationOptions::validate).
-            SelfCalibrationOptions c;
-            try {
-              std::size_t used = 0;
-              c.nuisance_nodes = std::stoi(text, &used);
-              if (used != text.size()) throw std::invalid_argument(text);
-            } catch (const std::logic_error&) {
+            const std::optional<long long> v = parseInteger(text);
+            if (!v || *v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max())
               return "'" + text + "' is not an integer";
-            }
+            SelfCalibrationOptions c;
+            c.nuisance_nodes = static_cast<int>(*v);
             try {
               c.validate();
             } catch (const std::invalid_argument& e) {
