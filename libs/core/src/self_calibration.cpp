@@ -1405,8 +1405,10 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     // continuously (a switch to the first-order inverse where S − M stops being positive
     // definite made the covariance blow up just before it and drop at it; a cap at ½ made the
     // white-3× Monte Carlo over-confident, README).
-    Eigen::MatrixXd Sigma1;
-    {
+    // Sigma1 stays 0 x 0 when the gauge holds every pose (no free DoF: every covariance is 0
+    // whatever the noise; Eigen's eigensolver does not take an empty matrix).
+    Eigen::MatrixXd Sigma1(0, 0);
+    if (m.Sr.rows() > 0) {
       const Eigen::MatrixXd Li = m.L_r.triangularView<Eigen::Lower>().solve(
           Eigen::MatrixXd::Identity(m.Sr.rows(), m.Sr.cols()));  // L⁻¹
       Eigen::MatrixXd W = Li * Mr * Li.transpose();
