@@ -5,8 +5,8 @@ magnitude (README "The shared real snapshot"), as an SVG with two panels.
     scripts/edge_figure.py [--snapshot ../shared/data/droid_window_0055.npz]
                            [--build build] [--out docs/self_calibration_edges.svg] [-- ARGS...]
 
-Runs `dba-covariance -i SNAPSHOT --self-calibrate --edge-csv ...` (extra ARGS go to it, e.g.
-`--self-calibrate-method score`), then plots per edge the white-noise inflation c_e (filled)
+Runs `dba-covariance -i SNAPSHOT --edge-csv ...` (extra ARGS go to it, e.g.
+`--self-calibrate-nodes 0`), then plots per edge the white-noise inflation c_e (filled)
 and c_e times the field's share, `correlation` (open: the edge's whole error variance over the
 confidences' claim), on a log axis, against the mean confidence of the edge's pixels with w > 0
 and their mean flow magnitude |target - pixel| (grid pixels). Prints the Spearman rank
@@ -106,7 +106,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         edges_csv = os.path.join(tmp, "edges.csv")
         cmd = [exe, "-i", a.snapshot, "--csv", os.path.join(tmp, "k.csv"), "-q",
-               "--self-calibrate", "--edge-csv", edges_csv] + extra
+               "--edge-csv", edges_csv] + extra
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
             sys.exit(f"edge_figure: {' '.join(cmd)} failed:\n{r.stderr}")

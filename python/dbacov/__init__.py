@@ -8,8 +8,8 @@
     cov.marginals()                                   # (K, 6, 6)
     cov.inverse_depth_sigma(k)                        # (H, W)
     cov.summary()                                     # one line (full=True: every field)
-    cov = dbacov.Covariance(snap, self_calibrate=True)  # --self-calibrate [--self-calibrate-method]
-    cov.self_calibration                              # method, per-edge inflations, ... (a dict)
+    cov.self_calibration                              # the noise model found: a dict (None when
+    cov = dbacov.Covariance(snap, stated_model=True)  # ... the stated model: --stated-model)
     cov.write_pose_rawlog("poses.rawlog", fps=20)     # dba-covariance -o (through the MRPT bridge)
     dbacov.write_pose_rawlog("poses.rawlog", [cov1, cov2], emit="final")
     snap = dbacov.from_droid(video, graph)            # DROID's DepthVideo and FactorGraph
@@ -67,19 +67,15 @@ def Covariance(snapshot, preset="droid", **options):
     """The covariance engine on `snapshot` (a Snapshot or a path). Keywords mirror dba-covariance:
     weight_scale, gauge ("two-pose" | "minimal" | "droid"), gauge_sigma_rot, gauge_sigma_trans,
     near, far, min_depth_ratio, sensor_depth_weight, solver ("sparse" | "dense"), ordering,
-    threads; depth_sigma=True keeps what inverse_depth_sigma needs. Self-calibration as
-    --self-calibrate: self_calibrate=True, self_calibrate_method ("nuisance" (default) |
-    "bootstrap" | "score" | "vce" | "autocorr" | "sandwich"; implies self_calibrate),
-    self_calibrate_iterations (1..20), self_calibrate_nodes (the field of nuisance and bootstrap:
-    0 = affine, 2..8 = affine + G x G spline, default 4), self_calibrate_replicates (bootstrap's
-    re-solved replicates, 4..100000, default 32) and self_calibrate_resampling ("parametric"
-    (default) | "wild": bootstrap's white noise) and self_calibrate_depth_noise (True (default)
-    | False: the depths' second-order noise term; not with bootstrap); each implies
-    self_calibrate. Bootstrap adds
-    bootstrap_scale, bootstrap_replicates and bootstrap_failed to the dict;
-    converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the solved one;
-    converge_iterations, 1..100000, default 200, caps that solve and implies converge=True);
-    with self_calibrate=True too, stereo edges and RGB-D readings are re-weighted at their
+    threads; depth_sigma=True keeps what inverse_depth_sigma needs.
+    The noise model is self-calibrated from the snapshot's residuals by default (dba-covariance's
+    default: a per-edge flow-error field, the white scale and the depths' second-order term);
+    stated_model=True gives the covariance of the noise the snapshot states (confidences times
+    weight_scale), as --stated-model. self_calibrate_nodes (the field: 0 = affine, 2..8 = affine
+    + G x G spline, default 4) and self_calibrate_depth_noise (True (default) | False) tune the
+    calibration. converge=True solves the snapshot's DBA first (on a copy; .snapshot is then the
+    solved one; converge_iterations, 1..100000, default 200, caps that solve and implies
+    converge=True); self-calibrated, stereo edges and RGB-D readings are re-weighted at their
     calibrated variance ratio to the flow and the DBA re-solved until the ratios settle
     (.reweighting: None or a dict of solves, settled, last_ratio, unmeasured, sensor_depth_factor,
     edge_factors, failed_solve: None or the summary of a re-solve that did not converge, after
@@ -89,17 +85,18 @@ def Covariance(snapshot, preset="droid", **options):
     depth_noise (applied or not), depth_noise_share (what it adds to the trace of the method's own covariance, a fraction),
     depth_noise_kurtosis (the residuals' excess kurtosis the term used),
     depth_noise_cross_kurtosis (the two flow axes' joint fourth cumulant it used),
-    edges: one array per --edge-csv column; nuisance adds field_sigma, field_fine_sigma (px)
-    and field_params)."""
+    edges: one array per --edge-csv column, field_sigma, field_fine_sigma (px) and field_params);
+    None with stated_model=True."""
     if not isinstance(snapshot, _Snapshot):
         snapshot = load(str(snapshot))
     return _Covariance(snapshot, preset=preset, **options)
 
 
-def write_pose_rawlog(path, covariances, emit="latest", label="DBA_COVARIANCE", fps=None,
+def write_pose_rawlog(path, covariances, emit="latest", label=None, fps=None,
                       start_time=0.0):
     """dba-covariance -o over several snapshots' covariances (in input order): a gz-compressed
-    rawlog of CObservationRobotPose (CPose3DPDFGaussian), emit "latest" | "all" | "final", the
+    rawlog of CObservationRobotPose (CPose3DPDFGaussian), emit "latest" | "all" | "final", label
+    (default DBA_COVARIANCE_CALIBRATED, or DBA_COVARIANCE for stated-model covariances), the
     keyframe times from the snapshots' timestamps_s or, without them, start_time + tstamp / fps.
     Written atomically through the MRPT bridge (libdbacov_mrpt.so, loaded on the first call); the
     same bytes as the command-line tool. Errors: dbacov.InputError with the CLI's messages."""

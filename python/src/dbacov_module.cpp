@@ -17,19 +17,17 @@
 #include <optional>
 #include <string>
 
+#include "dbacov/app/covariance_app.h"
 #include "dbacov/app/outputs.h"
 #include "dbacov/app/self_calibration_options.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/errors.h"
 #include "dbacov/core/keyframe_times.h"
 #include "dbacov/core/options.h"
-#include "dbacov/core/self_calibration.h"
+#include "dbacov/core/pipeline.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/core/threads.h"
 #include "dbacov/io/snapshot_npz.h"
-#include "dbacov/sim/bootstrap.h"
-#include "dbacov/sim/calibrated_solve.h"
-#include "dbacov/sim/dba_solver.h"
 
 namespace py = pybind11;
 using namespace dbacov;
@@ -122,29 +120,18 @@ struct PyCovariance {
   std::unique_ptr<DbaCovariance> cov;
   DbaOptions options;
   bool depth_sigma = true;
-  std::optional<SelfCalibration> calibration;  ///< self_calibrate=True
+  std::optional<SelfCalibration> calibration;  ///< unless stated_model=True
   std::optional<DbaSolverSummary> solve;       ///< converge=True
-  std::optional<CalibratedSolve> reweighted;   ///< converge=True with self_calibrate=True
+  std::optional<CalibratedSolve> reweighted;   ///< converge=True, self-calibrated
 };
 
-/// The self-calibration keywords into the core options by the apps' own builder
-/// (SelfCalibrationAppOptions::options(): the method's name through the enum table, the same
-/// message for an unknown one). A method, iterations, nodes, replicates, resampling or depth
-/// noise imply self_calibrate, as their flags do.
-SelfCalibrationAppOptions selfCalibrationOptions(
-    bool self_calibrate, std::optional<std::string> method, std::optional<int> iterations,
-    std::optional<int> nodes, std::optional<int> replicates, std::optional<std::string> resampling,
-    std::optional<bool> depth_noise, bool converge, std::optional<int> converge_iterations) {
+/// The noise-model keywords into the apps' options (SelfCalibrationAppOptions::options(): the
+/// same checks and messages as dba-covariance's flags, named by the keyword).
+SelfCalibrationAppOptions selfCalibrationOptions(bool stated_model, std::optional<int> nodes,
+                                                 std::optional<bool> depth_noise, bool converge,
+                                                 std::optional<int> converge_iterations) {
   SelfCalibrationAppOptions o;
-  o.enabled = self_calibrate || method.has_value() || iterations.has_value() || nodes.has_value() ||
-              replicates.has_value() || resampling.has_value() || depth_noise.has_value();
-  if (method) o.method = *method;
-  if (iterations) {
-    if (*iterations < 1 || *iterations > 20)  // dba-covariance's integerIn(1, 20)
-      throw std::invalid_argument("self_calibrate_iterations: " + std::to_string(*iterations) +
-                                  " is not in 1..20");
-    o.iterations = *iterations;
-  }
+  o.stated_model = stated_model;
   if (nodes) {
     // The core's own check (SelfCalibrationOptions::validate), named by the keyword.
     SelfCalibrationOptions check;
@@ -156,14 +143,12 @@ SelfCalibrationAppOptions selfCalibrationOptions(
     }
     o.nodes = *nodes;
   }
-  if (replicates) {
-    if (*replicates < 4 || *replicates > 100000)  // dba-covariance's integerIn(4, 100000)
-      throw std::invalid_argument("self_calibrate_replicates: " + std::to_string(*replicates) +
-                                  " is not in 4..100000");
-    o.replicates = *replicates;
-  }
-  if (resampling) o.resampling = *resampling;
   if (depth_noise) o.depth_noise = *depth_noise ? "on" : "off";
+  if (stated_model && (nodes || depth_noise))
+    throw std::invalid_argument(
+        std::string(nodes ? "self_calibrate_nodes" : "self_calibrate_depth_noise") +
+        " applies to the self-calibrated covariance, not with "
+        "stated_model=True");
   o.converge = converge || converge_iterations.has_value();
   if (converge_iterations) {
     if (*converge_iterations < 1 ||
@@ -172,7 +157,7 @@ SelfCalibrationAppOptions selfCalibrationOptions(
                                   " is not in 1..100000");
     o.converge_iterations = *converge_iterations;
   }
-  o.options();  // throws std::invalid_argument for an unknown method or resampling
+  o.options();
   return o;
 }
 
@@ -183,17 +168,9 @@ py::dict calibrationDict(const SelfCalibration& cal) {
   d["passes"] = cal.passes;
   d["sensor_depth_scale"] = cal.sensor_depth_scale;  // RGB-D readings' variance factor (1: none)
   d["sensor_depth_rows"] = cal.sensor_depth_rows;
-  if (cal.method == SelfCalibrationMethod::Nuisance ||
-      cal.method == SelfCalibrationMethod::Bootstrap) {
-    d["field_sigma"] = cal.nuisance_sigma;
-    d["field_fine_sigma"] = cal.nuisance_fine_sigma;
-    d["field_params"] = cal.nuisance_params;
-  }
-  if (cal.method == SelfCalibrationMethod::Bootstrap) {
-    d["bootstrap_scale"] = cal.bootstrap_scale;
-    d["bootstrap_replicates"] = cal.bootstrap_replicates;
-    d["bootstrap_failed"] = cal.bootstrap_failed;
-  }
+  d["field_sigma"] = cal.nuisance_sigma;
+  d["field_fine_sigma"] = cal.nuisance_fine_sigma;
+  d["field_params"] = cal.nuisance_params;
   py::dict opt;
   opt["gradient_norm"] = cal.optimum.gradient_norm;
   opt["step_sigma"] = cal.optimum.step_sigma;
@@ -233,13 +210,33 @@ py::dict calibrationDict(const SelfCalibration& cal) {
 /// file, written atomically through the MRPT bridge, which is loaded here on first use).
 /// `times[c]` replaces the keyframe times of covariance c; else `fps` derives them as --fps does.
 /// Errors name the snapshot as the CLI's error lines do.
+/// dba-covariance's default sensorLabel for the noise model the covariances hold; InputError
+/// when they mix the self-calibrated and the stated model (one label would misname some).
+std::string defaultLabel(const std::vector<const PyCovariance*>& covs) {
+  std::size_t calibrated = 0;
+  for (const PyCovariance* c : covs) calibrated += c->calibration.has_value();
+  if (calibrated != 0 && calibrated != covs.size())
+    throw InputError(
+        "the covariances mix the self-calibrated and the stated noise model: give label= to "
+        "name the observations");
+  app::CovarianceAppOptions o;
+  o.self_calibration.stated_model = !covs.empty() && calibrated == 0;
+  return o.rawlogLabel();
+}
+
 void writePoseRawlog(const std::string& path, const std::vector<const PyCovariance*>& covs,
                      const std::vector<std::optional<std::vector<double>>>& times,
-                     const std::string& emit, const std::string& label, std::optional<double> fps,
-                     double start_time) {
+                     const std::string& emit, const std::optional<std::string>& label,
+                     std::optional<double> fps, double start_time) {
+  if (covs.empty())  // an empty rawlog would replace whatever the path holds
+    throw InputError(path + ": no covariances to write (the file is left as it is)");
+  for (std::size_t c = 0; c < covs.size(); ++c)
+    if (!covs[c])  // pybind11 turns None into a null pointer
+      throw py::type_error("covariances[" + std::to_string(c) +
+                           "] is None, expected a dbacov.Covariance");
   const auto mode = parseEnum<app::EmitMode>(emit);
   if (fps) checkFps(*fps, "fps");
-  app::PoseRawlogSink sink(path, label, mode);
+  app::PoseRawlogSink sink(path, label ? *label : defaultLabel(covs), mode);
   for (std::size_t c = 0; c < covs.size(); ++c) {
     const PyCovariance& pc = *covs[c];
     const Snapshot* s = pc.snapshot.get();
@@ -393,14 +390,13 @@ PYBIND11_MODULE(_dbacov, m) {
   m.def(
       "_write_pose_rawlog",
       [](const std::string& path, const std::vector<const PyCovariance*>& covs,
-         const std::string& emit, const std::string& label, std::optional<double> fps,
-         double start_time) {
+         const std::string& emit, const std::optional<std::string>& label,
+         std::optional<double> fps, double start_time) {
         py::gil_scoped_release release;
         writePoseRawlog(path, covs, {}, emit, label, fps, start_time);
       },
       py::arg("path"), py::arg("covariances"), py::kw_only(), py::arg("emit") = "latest",
-      py::arg("label") = "DBA_COVARIANCE", py::arg("fps") = py::none(),
-      py::arg("start_time") = 0.0);
+      py::arg("label") = py::none(), py::arg("fps") = py::none(), py::arg("start_time") = 0.0);
   m.def("_mrpt_bridge_loaded", &mrpt_bridge::mrptBridgeLoaded);
 
   covariance
@@ -411,54 +407,32 @@ PYBIND11_MODULE(_dbacov, m) {
                        std::optional<double> far, std::optional<double> min_depth_ratio,
                        std::optional<double> sensor_depth_weight, const std::string& solver,
                        const std::string& ordering, std::size_t threads, bool depth_sigma,
-                       bool self_calibrate, std::optional<std::string> self_calibrate_method,
-                       std::optional<int> self_calibrate_iterations,
-                       std::optional<int> self_calibrate_nodes,
-                       std::optional<int> self_calibrate_replicates,
-                       std::optional<std::string> self_calibrate_resampling,
+                       bool stated_model, std::optional<int> self_calibrate_nodes,
                        std::optional<bool> self_calibrate_depth_noise, bool converge,
                        std::optional<int> converge_iterations) {
              auto c = std::make_unique<PyCovariance>();
-             c->options =
+             const DbaOptions engine =
                  engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans,
                                near, far, min_depth_ratio, sensor_depth_weight);
              const CovarianceOptions so = solverOptions(solver, ordering, depth_sigma);
-             const SelfCalibrationAppOptions sc = selfCalibrationOptions(
-                 self_calibrate, self_calibrate_method, self_calibrate_iterations,
-                 self_calibrate_nodes, self_calibrate_replicates, self_calibrate_resampling,
-                 self_calibrate_depth_noise, converge, converge_iterations);
+             const SelfCalibrationAppOptions sc =
+                 selfCalibrationOptions(stated_model, self_calibrate_nodes,
+                                        self_calibrate_depth_noise, converge, converge_iterations);
              c->depth_sigma = depth_sigma;
              py::gil_scoped_release release;
              const ThreadLimit limit(threads);
-             // As dba-covariance does per snapshot (SelfCalibrationRun::covariance): --converge
-             // solves the snapshot's DBA first (on a copy here: the caller's snapshot is kept),
-             // --self-calibrate then calibrates on that state.
-             // With self_calibrate=True the solve is at the calibrated weights of the factors
-             // on the depths alone (calibrated_solve.h), as dba-covariance's --converge.
-             // The engine's numerical errors name no snapshot (their callers do, as
-             // dba-covariance's "FILE (snapshot N): ..."): this one's name first.
+             // dba-covariance's pipeline (computeCovariance); converge=True solves a copy: the
+             // caller's snapshot is kept. The engine's numerical errors name no snapshot (their
+             // callers do, as dba-covariance's "FILE (snapshot N): ..."): this one's name first.
              try {
-               if (sc.converge) {
-                 auto solved = std::make_shared<Snapshot>(*snap);
-                 if (sc.enabled) {
-                   c->reweighted =
-                       solveDbaAtCalibratedWeights(*solved, c->options, kCalibratedMaxSolves,
-                                                   kCalibratedRatioTolerance, sc.convergeSolver());
-                   c->solve = c->reweighted->solver;
-                   c->options = c->reweighted->options;
-                 } else {
-                   c->solve = solveDba(*solved, c->options, sc.convergeSolver());
-                 }
-                 snap = std::move(solved);
-               }
-               c->snapshot = snap;
-               if (sc.enabled) {
-                 c->calibration = runSelfCalibration(*c->snapshot, c->options, sc.options());
-                 c->cov = std::make_unique<DbaCovariance>(
-                     selfCalibratedCovariance(*c->snapshot, c->options, so, *c->calibration));
-               } else {
-                 c->cov = std::make_unique<DbaCovariance>(*c->snapshot, c->options, so);
-               }
+               auto state = sc.converge ? std::make_shared<Snapshot>(*snap) : snap;
+               PipelineResult r = computeCovariance(*state, sc.pipeline(engine, so));
+               c->snapshot = std::move(state);
+               c->cov = std::move(r.cov);
+               c->options = r.options;
+               c->calibration = std::move(r.calibration);
+               c->solve = r.solve;
+               c->reweighted = std::move(r.reweighted);
              } catch (const NumericalError& e) {
                throw NumericalError(snap->name() + ": " + e.what(), e.keyframes());
              }
@@ -470,12 +444,8 @@ PYBIND11_MODULE(_dbacov, m) {
            py::arg("near") = py::none(), py::arg("far") = py::none(),
            py::arg("min_depth_ratio") = py::none(), py::arg("sensor_depth_weight") = py::none(),
            py::arg("solver") = "sparse", py::arg("ordering") = "auto", py::arg("threads") = 0,
-           py::arg("depth_sigma") = true, py::arg("self_calibrate") = false,
-           py::arg("self_calibrate_method") = py::none(),
-           py::arg("self_calibrate_iterations") = py::none(),
+           py::arg("depth_sigma") = true, py::arg("stated_model") = false,
            py::arg("self_calibrate_nodes") = py::none(),
-           py::arg("self_calibrate_replicates") = py::none(),
-           py::arg("self_calibrate_resampling") = py::none(),
            py::arg("self_calibrate_depth_noise") = py::none(), py::arg("converge") = false,
            py::arg("converge_iterations") = py::none())
       .def_property_readonly(
@@ -483,8 +453,7 @@ PYBIND11_MODULE(_dbacov, m) {
           [](const PyCovariance& c) -> py::object {
             if (!c.calibration) return py::none();
             py::dict d = calibrationDict(*c.calibration);
-            d["depth_noise"] = c.calibration->depth_noise &&
-                               c.calibration->method != SelfCalibrationMethod::Bootstrap;
+            d["depth_noise"] = c.calibration->depth_noise;
             d["depth_noise_share"] = c.cov->summary().self_calibration.depth_noise_share;
             d["depth_noise_kurtosis"] = c.cov->summary().self_calibration.depth_noise_kurtosis;
             d["depth_noise_cross_kurtosis"] =
@@ -525,14 +494,13 @@ PYBIND11_MODULE(_dbacov, m) {
       .def(
           "write_pose_rawlog",
           [](const PyCovariance& c, const std::string& path, const std::string& emit,
-             const std::string& label, std::optional<double> fps, double start_time,
+             const std::optional<std::string>& label, std::optional<double> fps, double start_time,
              std::optional<std::vector<double>> times) {
             py::gil_scoped_release release;
             writePoseRawlog(path, {&c}, {times}, emit, label, fps, start_time);
           },
-          py::arg("path"), py::kw_only(), py::arg("emit") = "latest",
-          py::arg("label") = "DBA_COVARIANCE", py::arg("fps") = py::none(),
-          py::arg("start_time") = 0.0, py::arg("times") = py::none(),
+          py::arg("path"), py::kw_only(), py::arg("emit") = "latest", py::arg("label") = py::none(),
+          py::arg("fps") = py::none(), py::arg("start_time") = 0.0, py::arg("times") = py::none(),
           "dba-covariance -o for this snapshot: a gz rawlog of CObservationRobotPose, written "
           "atomically through the MRPT bridge")
       .def_property_readonly("keyframes", [](const PyCovariance& c) { return c.cov->keyframes(); })

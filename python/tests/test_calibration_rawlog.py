@@ -1,7 +1,7 @@
-"""`import dbacov`: self-calibration keywords and the pose-rawlog writer, against dba-covariance.
+"""`import dbacov`: the noise-model keywords and the pose-rawlog writer, against dba-covariance.
 
-Run by ctest (python_dbacov). Self-calibrated covariances must agree with `dba-covariance
---self-calibrate` to 1e-12, the per-edge values with its --edge-csv (printed with 6 digits), and a
+Run by ctest (python_dbacov). Self-calibrated covariances (the default) must agree with
+`dba-covariance` to 1e-12, the per-edge values with its --edge-csv (printed with 6 digits), and a
 pose rawlog written from Python must hold the same bytes (after gunzip) as `dba-covariance -o`.
 """
 
@@ -27,29 +27,20 @@ def edge_csv(path):
     return head, rows
 
 
-@pytest.mark.parametrize("method,iterations,nodes", [
-    (None, None, None), ("score", 2, None), ("vce", None, None), ("autocorr", None, None),
-    ("sandwich", None, None), ("nuisance", None, 0), (None, None, 3)])
-def test_self_calibration_agrees_with_the_cli(shared_path, tmp_path, method, iterations, nodes):
-    kw = {"self_calibrate": True}
-    args = ["--self-calibrate", "--edge-csv", str(tmp_path / "edges.csv")]
-    if method:
-        kw = {"self_calibrate_method": method}  # implies self_calibrate, as the flag does
-        args += ["--self-calibrate-method", method]
-    if iterations:
-        kw["self_calibrate_iterations"] = iterations
-        args += ["--self-calibrate-iterations", str(iterations)]
+@pytest.mark.parametrize("nodes", [None, 0, 3])
+def test_self_calibration_agrees_with_the_cli(shared_path, tmp_path, nodes):
+    kw = {}
+    args = ["--edge-csv", str(tmp_path / "edges.csv")]
     if nodes is not None:
         kw["self_calibrate_nodes"] = nodes
         args += ["--self-calibrate-nodes", str(nodes)]
     cov = dbacov.Covariance(shared_path, **kw)
     assert_agree(cov, cli_marginals(shared_path, tmp_path, *args))
     cal = cov.self_calibration
-    assert cal["method"] == (method or "nuisance")
-    if cal["method"] == "nuisance":
-        g = 4 if nodes is None else nodes  # the default spline, or the one asked for
-        assert cal["field_params"] == 2 * (3 + (g * g if g >= 2 else 0))
-        assert cal["field_sigma"] + cal["field_fine_sigma"] > 0  # the snapshot has a field
+    assert cal["method"] == "nuisance"
+    g = 4 if nodes is None else nodes  # the default spline, or the one asked for
+    assert cal["field_params"] == 2 * (3 + (g * g if g >= 2 else 0))
+    assert cal["field_sigma"] + cal["field_fine_sigma"] > 0  # the snapshot has a field
     assert cal["passes"] >= 1 and cal["optimum"]["free_dof"] == 48
     assert not cal["optimum"]["unreliable"]
     _, rows = edge_csv(tmp_path / "edges.csv")
@@ -66,43 +57,45 @@ def test_self_calibration_agrees_with_the_cli(shared_path, tmp_path, method, ite
     assert f"self-calibration         {cal['method']}" in cov.summary(full=True)
 
 
-def test_without_self_calibration_nothing_changes(shared_path, tmp_path):
-    cov = dbacov.Covariance(shared_path)
+def test_stated_model_is_the_uncalibrated_engine(shared_path, tmp_path):
+    cov = dbacov.Covariance(shared_path, stated_model=True)
     assert cov.self_calibration is None and cov.converged is None
     assert "self-calibrated" not in cov.summary()
     assert cov.summary().startswith("10 keyframes, 58 edges")
-    raw = cli_marginals(shared_path, tmp_path)
-    cal = dbacov.Covariance(shared_path, self_calibrate=True)
+    raw = cli_marginals(shared_path, tmp_path, "--stated-model")
+    assert_agree(cov, raw)
+    cal = dbacov.Covariance(shared_path)
     k = cov.keyframes[-1]
     assert np.trace(cal.marginal(k)) < 1e-3 * np.trace(raw[k])  # README: ~170x smaller sigma
 
 
 def test_converge_then_self_calibrate_agrees_with_the_cli(shared_path, tmp_path):
     snap = dbacov.load(shared_path)
-    cov = dbacov.Covariance(snap, self_calibrate=True, converge=True)
+    cov = dbacov.Covariance(snap, converge=True)
     assert cov.converged is True
     assert cov.snapshot is not snap  # solved on a copy: the caller's snapshot is kept
     np.testing.assert_array_equal(snap.poses, dbacov.load(shared_path).poses)
-    assert_agree(cov, cli_marginals(shared_path, tmp_path, "--self-calibrate", "--converge"))
+    assert_agree(cov, cli_marginals(shared_path, tmp_path, "--converge"))
 
 
 def test_converge_iterations_keyword_caps_the_solve_as_the_cli(shared_path, tmp_path):
     # converge_iterations implies converge, as --converge-iterations does; the shared snapshot
     # needs 7 iterations, so a cap of 2 leaves it unconverged (the state as the solve left it).
-    capped = dbacov.Covariance(shared_path, converge_iterations=2)
+    capped = dbacov.Covariance(shared_path, converge_iterations=2, stated_model=True)
     assert capped.converged is False
-    assert_agree(capped, cli_marginals(shared_path, tmp_path, "--converge-iterations", "2"))
-    full = dbacov.Covariance(shared_path, converge=True, converge_iterations=50)
+    assert_agree(capped, cli_marginals(shared_path, tmp_path, "--converge-iterations", "2",
+                                       "--stated-model"))
+    full = dbacov.Covariance(shared_path, converge=True, converge_iterations=50,
+                             stated_model=True)
     assert full.converged is True
     k = full.keyframes[-1]
     assert np.abs(full.marginal(k) - capped.marginal(k)).max() > 0
     with pytest.raises(ValueError, match="converge_iterations: 0 is not in 1..100000"):
         dbacov.Covariance(shared_path, converge_iterations=0)
-    # With self_calibrate the cap reaches the solve at the calibrated weights too (one solve:
-    # the shared snapshot has no depth-only factors).
-    assert dbacov.Covariance(shared_path, self_calibrate=True,
-                             converge_iterations=3).converged is False
-    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "c.csv"), "--self-calibrate",
+    # Self-calibrated, the cap reaches the solve at the calibrated weights too (one solve: the
+    # shared snapshot has no depth-only factors).
+    assert dbacov.Covariance(shared_path, converge_iterations=3).converged is False
+    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "c.csv"),
                 "--converge-iterations", "3")
     assert r.returncode == 0, r.stderr
     assert "it reached the cap of 3 iterations (--converge-iterations raises it))" in r.stderr
@@ -122,70 +115,47 @@ def test_converge_iterations_cap_the_re_solves_at_the_calibrated_weights(tmp_pat
     assert r.returncode == 0, r.stderr
     path = str(sorted(out.glob("snapshot_*.npz"))[0])
     claims = ["--weight-scale", "100", "--gauge", "droid"]
-    cov = dbacov.Covariance(path, weight_scale=100, gauge="droid", self_calibrate=True,
-                            converge_iterations=2)
+    cov = dbacov.Covariance(path, weight_scale=100, gauge="droid", converge_iterations=2)
     rw = cov.reweighting
     assert cov.converged is True and rw["solves"] == 2 and not rw["settled"]
     assert rw["failed_solve"].startswith("2 iterations (") and \
         rw["failed_solve"].endswith(", max iterations")
-    r = run_cli("-i", path, "--csv", str(tmp_path / "s.csv"), "--self-calibrate",
+    r = run_cli("-i", path, "--csv", str(tmp_path / "s.csv"),
                 "--converge-iterations", "2", *claims)
     assert r.returncode == 0, r.stderr
     assert ("; the last re-solve did not converge (2 iterations (" in r.stderr and
             ", max iterations; it reached the cap of 2 iterations (--converge-iterations raises "
             "it)): the last converged state is kept)" in r.stderr), r.stderr
-    assert_agree(cov, cli_marginals(path, tmp_path, "--self-calibrate", "--converge-iterations",
-                                    "2", *claims))
+    assert_agree(cov, cli_marginals(path, tmp_path, "--converge-iterations", "2", *claims))
 
 
 def test_bad_self_calibration_options_give_the_cli_message(shared_path, tmp_path):
-    with pytest.raises(ValueError) as e:
-        dbacov.Covariance(shared_path, self_calibrate_method="bogus")
-    assert str(e.value) == ("unknown self-calibration method 'bogus', expected score, vce, "
-                            "autocorr, sandwich, nuisance or bootstrap")
-    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "x.csv"),
-                "--self-calibrate-method", "bogus")
-    assert r.returncode == 2
-    assert r.stderr.splitlines()[0] == ("dba-covariance: --self-calibrate-method: "
-                                        + str(e.value))
     # every enum keyword shares its message with its flag (the one table, enum_names.h)
     with pytest.raises(ValueError) as e:
         dbacov.Covariance(shared_path, gauge="bogus")
     r = run_cli("-i", shared_path, "--csv", str(tmp_path / "x.csv"), "--gauge", "bogus")
     assert r.stderr.splitlines()[0] == "dba-covariance: --gauge: " + str(e.value)
-    with pytest.raises(ValueError, match="self_calibrate_iterations: 0 is not in 1..20"):
-        dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_iterations=0)
     with pytest.raises(ValueError, match="self_calibrate_nodes: self-calibration nuisance nodes "
                                          "must be 0 .affine. or 2..8"):
-        dbacov.Covariance(shared_path, self_calibrate=True, self_calibrate_nodes=9)
-    with pytest.raises(ValueError, match="nodes apply to the nuisance and bootstrap methods only, not score"):
-        dbacov.Covariance(shared_path, self_calibrate_method="score", self_calibrate_nodes=3)
-    with pytest.raises(ValueError, match="self_calibrate_replicates: 3 is not in 4..100000"):
-        dbacov.Covariance(shared_path, self_calibrate_method="bootstrap",
-                          self_calibrate_replicates=3)
-    with pytest.raises(ValueError, match="resampling applies to the bootstrap method only, not nuisance"):
-        dbacov.Covariance(shared_path, self_calibrate_resampling="wild")
-    with pytest.raises(ValueError, match="unknown bootstrap resampling 'block', expected parametric or wild"):
-        dbacov.Covariance(shared_path, self_calibrate_method="bootstrap",
-                          self_calibrate_resampling="block")
+        dbacov.Covariance(shared_path, self_calibrate_nodes=9)
+    # A calibration option with the stated model would be ignored: refused, as the flags are.
+    with pytest.raises(ValueError, match="self_calibrate_nodes applies to the self-calibrated "
+                                         "covariance, not with stated_model=True"):
+        dbacov.Covariance(shared_path, stated_model=True, self_calibrate_nodes=3)
+    with pytest.raises(ValueError, match="self_calibrate_depth_noise applies"):
+        dbacov.Covariance(shared_path, stated_model=True, self_calibrate_depth_noise=False)
+    # The study's methods are not the product's keywords.
+    with pytest.raises(TypeError):
+        dbacov.Covariance(shared_path, self_calibrate_method="vce")
+    with pytest.raises(TypeError):
+        dbacov.Covariance(shared_path, self_calibrate=True)
     assert not os.path.exists(tmp_path / "x.csv")
 
 
-def test_iterations_keyword_implies_the_self_calibration(shared_path):
-    # As --self-calibrate-iterations does on the command line (it was silently ignored alone):
-    # it implies the self-calibration, and is refused with a method that takes one pass.
-    it = dbacov.Covariance(shared_path, self_calibrate_iterations=2, self_calibrate_method="vce")
-    assert it.self_calibration["method"] == "vce" and it.self_calibration["passes"] == 2
-    with pytest.raises(ValueError, match="iterations apply to the vce, score and autocorr "
-                                         "methods only, not nuisance"):
-        dbacov.Covariance(shared_path, self_calibrate_iterations=2)
-    assert dbacov.Covariance(shared_path).self_calibration is None
-
-
 def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
-    # On by default; self_calibrate_depth_noise=False (implies self_calibrate) is the CLI's
-    # --self-calibrate-depth-noise off, to 1e-12; the term only widens the covariance.
-    on = dbacov.Covariance(shared_path, self_calibrate=True)
+    # On by default; self_calibrate_depth_noise=False is the CLI's --self-calibrate-depth-noise
+    # off, to 1e-12; the term only widens the covariance.
+    on = dbacov.Covariance(shared_path)
     off = dbacov.Covariance(shared_path, self_calibrate_depth_noise=False)
     assert on.self_calibration["depth_noise"] is True
     assert off.self_calibration["depth_noise"] is False
@@ -198,7 +168,7 @@ def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
     for k in on.keyframes[2:]:
         assert np.trace(on.marginal(k)) > np.trace(off.marginal(k))
     # The run summary says how much the term added.
-    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"), "--self-calibrate")
+    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"))
     assert r.returncode == 0, r.stderr
     share = 100 * on.self_calibration["depth_noise_share"]
     assert f"depths' second-order term median +{share:.6g} % on the calibrated trace (residual excess kurtosis median" in r.stderr
@@ -209,16 +179,6 @@ def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
     r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"),
                 "--self-calibrate-depth-noise", "off")
     assert r.returncode == 0 and "second-order" not in r.stderr, r.stderr
-    # Not with the bootstrap, which re-solves instead: refused by keyword and flag alike.
-    with pytest.raises(ValueError) as e:
-        dbacov.Covariance(shared_path, self_calibrate_method="bootstrap",
-                          self_calibrate_depth_noise=True)
-    r = run_cli("-i", shared_path, "--csv", str(tmp_path / "x.csv"), "--self-calibrate-method",
-                "bootstrap", "--self-calibrate-depth-noise", "on")
-    assert r.returncode == 2
-    assert r.stderr.splitlines()[0] == "dba-covariance: " + str(e.value)
-    assert "not bootstrap" in str(e.value)
-    assert not os.path.exists(tmp_path / "x.csv")
 
 
 def test_stereo_edges_and_sensor_depths_get_their_own_scales(shared_path, tmp_path):
@@ -231,9 +191,8 @@ def test_stereo_edges_and_sensor_depths_get_their_own_scales(shared_path, tmp_pa
     path = tmp_path / "stereo_rgbd.npz"
     np.savez(path, **a)
     csv = tmp_path / "edges.csv"
-    cov = dbacov.Covariance(str(path), gauge="droid", self_calibrate=True)
-    assert_agree(cov, cli_marginals(path, tmp_path, "--gauge", "droid", "--self-calibrate",
-                                    "--edge-csv", str(csv)))
+    cov = dbacov.Covariance(str(path), gauge="droid")
+    assert_agree(cov, cli_marginals(path, tmp_path, "--gauge", "droid", "--edge-csv", str(csv)))
     cal = cov.self_calibration
     assert cal["sensor_depth_rows"] > 1000
     assert cal["sensor_depth_scale"] > 0 and cal["sensor_depth_scale"] != 1.0
@@ -245,37 +204,9 @@ def test_stereo_edges_and_sensor_depths_get_their_own_scales(shared_path, tmp_pa
         assert int(rows[e]["pixels"]) > 0 and float(rows[e]["redundancy"]) > 0
         assert float(rows[e]["inflation"]) == pytest.approx(edges["inflation"][e], rel=1e-5)
     assert f"sensor depths' factor    {cal['sensor_depth_scale']:.6g}" in cov.summary(full=True)
-    r = run_cli("-i", str(path), "--csv", str(tmp_path / "k.csv"), "--gauge", "droid",
-                "--self-calibrate")
+    r = run_cli("-i", str(path), "--csv", str(tmp_path / "k.csv"), "--gauge", "droid")
     assert r.returncode == 0, r.stderr
     assert "sensor depths' variance factor median" in r.stderr + r.stdout
-
-
-def test_bootstrap_method_reports_its_scales(sim_dir):
-    # A small simulated snapshot (the shared one takes ~4 s per 32 replicates): the bootstrap's
-    # scales are in the dict next to the nuisance field it scales.
-    path = str(sorted(sim_dir.glob("snapshot_*.npz"))[0])
-    cal = dbacov.Covariance(path, weight_scale=4,
-                            self_calibrate_method="bootstrap").self_calibration
-    assert cal["method"] == "bootstrap"
-    assert cal["bootstrap_replicates"] + cal["bootstrap_failed"] == 32
-    assert cal["bootstrap_replicates"] >= 16
-    assert 0.5 < cal["bootstrap_scale"] < 3.0
-    assert "field_sigma" in cal
-    # The replicates and the resampling by keyword, as --self-calibrate-replicates and
-    # --self-calibrate-resampling; either implies the self-calibration.
-    wild = dbacov.Covariance(path, weight_scale=4, self_calibrate_method="bootstrap",
-                             self_calibrate_replicates=8,
-                             self_calibrate_resampling="wild").self_calibration
-    assert wild["bootstrap_replicates"] + wild["bootstrap_failed"] == 8
-    assert wild["bootstrap_replicates"] >= 4
-    assert wild["bootstrap_scale"] != cal["bootstrap_scale"]
-    # The depths' term "off" is accepted with the bootstrap (which never adds it), "on" refused.
-    off = dbacov.Covariance(path, weight_scale=4, self_calibrate_method="bootstrap",
-                            self_calibrate_replicates=4,
-                            self_calibrate_depth_noise=False).self_calibration
-    assert off["depth_noise"] is False and off["depth_noise_share"] == 0
-    assert off["bootstrap_replicates"] + off["bootstrap_failed"] == 4
 
 
 # --- pose rawlogs -----------------------------------------------------------------------------
@@ -298,15 +229,24 @@ def test_pose_rawlog_is_the_clis_byte_for_byte(shared_path, tmp_path, emit):
     expected = cli_rawlog(tmp_path, [shared_path], "--emit", emit, "--fps", "20",
                           "--start-time", "1.7e9")
     assert gzip.decompress(path.read_bytes()) == expected
-    # explicit times (what from_droid's image_times_s gives), another label, self-calibrated
+    assert b"DBA_COVARIANCE_CALIBRATED" in expected  # the label names the noise model
+    # explicit times (what from_droid's image_times_s gives), another label, the stated model
     times = 1.7e9 + cov.snapshot.tstamp / 20
     cov.write_pose_rawlog(path, emit=emit, times=times)
     assert gzip.decompress(path.read_bytes()) == expected
-    cal = dbacov.Covariance(shared_path, self_calibrate=True)
-    dbacov.write_pose_rawlog(path, cal, emit=emit, label="CAL", fps=20, start_time=1.7e9)
+    stated = dbacov.Covariance(shared_path, stated_model=True)
+    dbacov.write_pose_rawlog(path, stated, emit=emit, fps=20, start_time=1.7e9)
+    expected = cli_rawlog(tmp_path, [shared_path], "--emit", emit, "--fps", "20",
+                          "--start-time", "1.7e9", "--stated-model")
+    assert gzip.decompress(path.read_bytes()) == expected
+    assert b"DBA_COVARIANCE_CALIBRATED" not in expected and b"DBA_COVARIANCE" in expected
+    dbacov.write_pose_rawlog(path, stated, emit=emit, label="CAL", fps=20, start_time=1.7e9)
     assert gzip.decompress(path.read_bytes()) == cli_rawlog(
         tmp_path, [shared_path], "--emit", emit, "--fps", "20", "--start-time", "1.7e9",
-        "--label", "CAL", "--self-calibrate")
+        "--label", "CAL", "--stated-model")
+    # One default label cannot name both models.
+    with pytest.raises(dbacov.InputError, match="mix the self-calibrated and the stated"):
+        dbacov.write_pose_rawlog(path, [cov, stated], fps=20)
 
 
 @pytest.fixture
@@ -387,28 +327,63 @@ def test_converge_re_weights_mis_claimed_sensor_depths_as_the_cli(tmp_path):
     assert r.returncode == 0, r.stderr
     path = str(sorted(out.glob("snapshot_*.npz"))[0])
     claimed = ["--weight-scale", "100", "--gauge", "droid", "--sensor-depth-weight", "1600"]
-    r = run_cli("-i", path, "--csv", str(tmp_path / "a.csv"), "--self-calibrate", *claimed)
+    r = run_cli("-i", path, "--csv", str(tmp_path / "a.csv"), *claimed)
     assert r.returncode == 0, r.stderr
     assert "--converge re-solves at the calibrated weights" in r.stderr
     assert "over-weighted depths shrink the translation" in r.stderr
     # alpha claimed 4x too low: the warning says under-weighted, not biased.
     low = ["--weight-scale", "100", "--gauge", "droid", "--sensor-depth-weight", "100"]
-    r = run_cli("-i", path, "--csv", str(tmp_path / "c.csv"), "--self-calibrate", *low)
+    r = run_cli("-i", path, "--csv", str(tmp_path / "c.csv"), *low)
     assert r.returncode == 0, r.stderr
     assert "under-weighted" in r.stderr and "shrink" not in r.stderr
     cov = dbacov.Covariance(path, weight_scale=100, gauge="droid", sensor_depth_weight=1600,
-                            self_calibrate=True, converge=True)
+                            converge=True)
     rw = cov.reweighting
     assert rw["solves"] >= 2 and rw["settled"] and rw["last_ratio"] <= 1.02
     assert rw["failed_solve"] is None
     assert 2.5 < rw["sensor_depth_factor"] < 6.0  # the truth: 4
     assert all(f == 1.0 for f in rw["edge_factors"])  # no stereo edge
-    assert_agree(cov, cli_marginals(path, tmp_path, "--self-calibrate", "--converge", *claimed))
-    r = run_cli("-i", path, "--csv", str(tmp_path / "b.csv"), "--self-calibrate", "--converge",
-                *claimed)
+    assert_agree(cov, cli_marginals(path, tmp_path, "--converge", *claimed))
+    r = run_cli("-i", path, "--csv", str(tmp_path / "b.csv"), "--converge", *claimed)
     assert r.returncode == 0, r.stderr
     assert "re-solved at the calibrated weights" in r.stderr
     assert "--converge re-solves" not in r.stderr
-    # converge without self_calibrate: one solve at the claimed weights, nothing re-weighted.
+    # converge with the stated model: one solve at the claimed weights, nothing re-weighted.
     assert dbacov.Covariance(path, weight_scale=100, gauge="droid", sensor_depth_weight=1600,
-                             converge=True).reweighting is None
+                             converge=True, stated_model=True).reweighting is None
+
+
+def test_pose_rawlog_refuses_none_and_an_empty_list(shared_path, tmp_path):
+    # None in the list was a null pointer in C++ (a segfault); an empty list replaced the file
+    # with an empty rawlog. Both are refused and the file is left as it was.
+    cov = dbacov.Covariance(shared_path, stated_model=True)
+    path = tmp_path / "x.rawlog"
+    path.write_bytes(b"previous")
+    with pytest.raises(TypeError, match=r"covariances\[0\] is None, expected a dbacov.Covariance"):
+        dbacov.write_pose_rawlog(path, [None], fps=20)
+    with pytest.raises(TypeError, match=r"covariances\[1\] is None"):
+        dbacov.write_pose_rawlog(path, [cov, None], fps=20)
+    with pytest.raises(dbacov.InputError, match="no covariances to write"):
+        dbacov.write_pose_rawlog(path, [], fps=20)
+    assert path.read_bytes() == b"previous"
+    assert sorted(os.listdir(tmp_path)) == ["x.rawlog"]
+
+
+def test_every_pose_held_by_the_gauge_is_zero_not_a_crash(tmp_path):
+    # Two keyframes under the two-pose gauge: nothing is free, every covariance is exactly 0
+    # whatever the noise model; the self-calibration (the default) used to segfault there.
+    if not os.path.exists(SIMUL):
+        pytest.fail(f"simul-dba not found: {SIMUL!r} (DBACOV_SIMUL)")
+    out = tmp_path / "two"
+    r = subprocess.run([SIMUL, "-o", str(out), "--keyframes", "2", "--mode", "whole",
+                        "--height", "24", "--width", "32", "--weight-scale", "4", "-q"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    path = str(out / "snapshot_0000.npz")
+    cal = dbacov.Covariance(path, weight_scale=4)
+    stated = dbacov.Covariance(path, weight_scale=4, stated_model=True)
+    for k in cal.keyframes:
+        assert not np.any(cal.marginal(k)) and not np.any(stated.marginal(k))
+    assert cal.self_calibration["optimum"]["free_dof"] == 0
+    r = run_cli("-i", path, "--csv", str(tmp_path / "k.csv"), "--weight-scale", "4")
+    assert r.returncode == 0, r.stderr

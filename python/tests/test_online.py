@@ -214,15 +214,15 @@ def test_command_line_runs_a_droid_script_with_the_hook(torch, sim_files, tmp_pa
     for s, f in enumerate(sim_files):
         assert lines[s] == printer(*frontend_objects(torch, f), s + 1)
     assert " t 1.650000 s: " in lines[-1]  # keyframe 11, frame 33, at 20 fps
-    # dba-covariance's self-calibration options and --converge-iterations reach Covariance as its
+    # dba-covariance's noise-model options and --converge-iterations reach Covariance as its
     # keywords.
-    r = subprocess.run([sys.executable, ONLINE, "--weight-scale", "4", "--self-calibrate-method",
-                        "vce", "--self-calibrate-depth-noise", "off", "--converge-iterations",
+    r = subprocess.run([sys.executable, ONLINE, "--weight-scale", "4", "--self-calibrate-nodes",
+                        "0", "--self-calibrate-depth-noise", "off", "--converge-iterations",
                         "3", "--", str(tmp_path / "demo.py"), *map(str, sim_files[:2])],
                        capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
     printer = dbacov_online.KeyframeSigmaPrinter(out=io.StringIO(), weight_scale=4,
-                                                 self_calibrate_method="vce",
+                                                 self_calibrate_nodes=0,
                                                  self_calibrate_depth_noise=False,
                                                  converge_iterations=3)
     plain = dbacov_online.KeyframeSigmaPrinter(out=io.StringIO(), weight_scale=4)
@@ -230,13 +230,22 @@ def test_command_line_runs_a_droid_script_with_the_hook(torch, sim_files, tmp_pa
         line = r.stdout.splitlines()[s]
         assert line == printer(*frontend_objects(torch, f), s + 1)
         assert line != plain(*frontend_objects(torch, f), s + 1)
+    # --stated-model reaches Covariance as stated_model=True.
+    r = subprocess.run([sys.executable, ONLINE, "--weight-scale", "4", "--stated-model", "--",
+                        str(tmp_path / "demo.py"), *map(str, sim_files[:2])],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    stated = dbacov_online.KeyframeSigmaPrinter(out=io.StringIO(), weight_scale=4,
+                                                stated_model=True)
+    for s, f in enumerate(sim_files[:2]):
+        line = r.stdout.splitlines()[s]
+        assert line == stated(*frontend_objects(torch, f), s + 1)
+        assert line != plain(*frontend_objects(torch, f), s + 1)
     r = subprocess.run([sys.executable, ONLINE], capture_output=True, text=True, env=env)
     assert r.returncode == 2 and "give DROID-SLAM's script after --" in r.stderr
     # Out-of-range numbers are refused before DROID runs, not per update after it.
     for option, value, message in (("--converge-iterations", "0", "1..100000"),
-                                   ("--self-calibrate-iterations", "21", "1..20"),
-                                   ("--self-calibrate-nodes", "1", "0 (affine) or 2..8"),
-                                   ("--self-calibrate-replicates", "3", "4..100000")):
+                                   ("--self-calibrate-nodes", "1", "0 (affine) or 2..8")):
         r = subprocess.run([sys.executable, ONLINE, option, value, "--", str(tmp_path / "demo.py"),
                             *map(str, sim_files[:1])], capture_output=True, text=True, env=env)
         assert r.returncode == 2 and r.stdout == "", r.stderr

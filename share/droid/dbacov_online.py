@@ -51,7 +51,8 @@ class KeyframeSigmaPrinter:
     keyframe on `out` (default stdout) and never raises.
 
     `image_times_s` (every image's time, by image index) adds the keyframe time; further keywords
-    are dbacov.Covariance's (preset, weight_scale, gauge, self_calibrate, ...)."""
+    are dbacov.Covariance's (preset, weight_scale, gauge, stated_model, ...): the sigmas are
+    self-calibrated from each update's residuals unless stated_model=True."""
 
     def __init__(self, out=None, image_times_s=None, include_inactive=True, digits=10,
                  stream=None, **covariance_options):
@@ -142,15 +143,12 @@ def main(argv=None):
     p.add_argument("--preset", default="droid")
     p.add_argument("--weight-scale", type=float)
     p.add_argument("--gauge")
-    p.add_argument("--self-calibrate", action="store_true",
-                   help="self-calibrated sigma (dba-covariance --self-calibrate)")
-    # dba-covariance's sub-options, each implying --self-calibrate (Covariance's keywords).
-    p.add_argument("--self-calibrate-method",
-                   help="nuisance (default), bootstrap, score, vce, autocorr or sandwich")
-    p.add_argument("--self-calibrate-iterations", type=int)
-    p.add_argument("--self-calibrate-nodes", type=int)
-    p.add_argument("--self-calibrate-replicates", type=int)
-    p.add_argument("--self-calibrate-resampling", choices=["parametric", "wild"])
+    p.add_argument("--stated-model", action="store_true",
+                   help="sigma of the noise DROID states (confidences x weight scale) instead "
+                        "of the self-calibrated default (dba-covariance --stated-model)")
+    # dba-covariance's calibration options (Covariance's keywords).
+    p.add_argument("--self-calibrate-nodes", type=int,
+                   help="the per-edge flow-error field: 0 = affine, 2..8 = G x G spline")
     p.add_argument("--self-calibrate-depth-noise", choices=["on", "off"])
     p.add_argument("--converge", action="store_true",
                    help="solve each update's DBA to the optimum of its factors first")
@@ -163,11 +161,8 @@ def main(argv=None):
     o = p.parse_args(ours)
     # The ranges dba-covariance checks (and Covariance would only report per update, as a
     # sigma-less line, after DROID has run): refused here, before DROID starts.
-    for key, ok, what in (("self_calibrate_iterations", lambda n: 1 <= n <= 20, "1..20"),
-                          ("self_calibrate_nodes", lambda n: n == 0 or 2 <= n <= 8,
+    for key, ok, what in (("self_calibrate_nodes", lambda n: n == 0 or 2 <= n <= 8,
                            "0 (affine) or 2..8"),
-                          ("self_calibrate_replicates", lambda n: 4 <= n <= 100000,
-                           "4..100000"),
                           ("converge_iterations", lambda n: 1 <= n <= 100000, "1..100000")):
         value = getattr(o, key)
         if value is not None and not ok(value):
@@ -178,11 +173,13 @@ def main(argv=None):
     for key in ("weight_scale", "gauge"):
         if getattr(o, key) is not None:
             options[key] = getattr(o, key)
-    if o.self_calibrate:
-        options["self_calibrate"] = True
-    for key in ("method", "iterations", "nodes", "replicates", "resampling"):
-        if getattr(o, "self_calibrate_" + key) is not None:
-            options["self_calibrate_" + key] = getattr(o, "self_calibrate_" + key)
+    if o.stated_model:
+        if o.self_calibrate_nodes is not None or o.self_calibrate_depth_noise is not None:
+            p.error("--self-calibrate-nodes and --self-calibrate-depth-noise apply to the "
+                    "self-calibrated sigma, not with --stated-model")
+        options["stated_model"] = True
+    if o.self_calibrate_nodes is not None:
+        options["self_calibrate_nodes"] = o.self_calibrate_nodes
     if o.self_calibrate_depth_noise is not None:
         options["self_calibrate_depth_noise"] = o.self_calibrate_depth_noise == "on"
     if o.converge:

@@ -10,9 +10,10 @@
 #include "dbacov/app/csv_format.h"
 #include "dbacov/app/outputs.h"
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/dba_solver.h"
+#include "dbacov/core/pipeline.h"
 #include "dbacov/io/npy.h"
 #include "dbacov/io/snapshot_npz.h"
-#include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "fixtures.h"
 #include "temp_dir.h"
@@ -49,20 +50,25 @@ TEST(CovarianceApp, WritesOneFullPrecisionRowPerGraphKeyframe) {
   const auto lines = splitLines(readFile(dir.file("out.csv")));
   ASSERT_EQ(lines.size(), 1u + 2 * 6);
   EXPECT_EQ(lines[0], app::keyframeCsvHeader());
-  EXPECT_EQ(splitCsv(lines[0]).size(), 16u + 21u);
+  EXPECT_EQ(splitCsv(lines[0]).size(), 16u + 21u + 1u);
   EXPECT_EQ(lines[0].substr(0, 60), "snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_op");
-  EXPECT_EQ(splitCsv(lines[0]).back(), "cov_55");
+  EXPECT_EQ(splitCsv(lines[0])[36], "cov_55");
+  EXPECT_EQ(splitCsv(lines[0]).back(), "noise_model");
   // Name order: a.npz (id 3) first, then b.npz (id 7).
   EXPECT_EQ(splitCsv(lines[1])[0], "3");
   EXPECT_EQ(splitCsv(lines[7])[0], "7");
 
-  // Values read back equal the engine's to the last bit, pose columns are T_wc.
+  // Values read back equal the engine's default pipeline's (computeCovariance: the
+  // self-calibrated covariance) to the last bit, pose columns are T_wc.
   const Snapshot s = io::loadSnapshotNpz(dir.file("in/a.npz"), 0);
-  DbaOptions o = DbaOptions::droid();
-  o.weight_scale = 4;
-  const DbaCovariance cov(s, o);
+  PipelineOptions p;
+  p.engine = DbaOptions::droid();
+  p.engine.weight_scale = 4;
+  const PipelineResult result = computeCovariance(s, p);
+  const DbaCovariance& cov = *result.cov;
   for (int row = 1; row <= 6; ++row) {
     const auto f = splitCsv(lines[row]);
+    EXPECT_EQ(f.back(), "self-calibrated");
     const int k = std::stoi(f[1]);
     EXPECT_EQ(std::stod(f[3]), s.T_wc(k).translation().x());
     const Matrix6d S = cov.marginal(k);
@@ -78,8 +84,10 @@ TEST(CovarianceApp, WritesOneFullPrecisionRowPerGraphKeyframe) {
 TEST(CovarianceApp, RelativeCsvAndDepthSigmaMatchTheDenseReference) {
   testing::TempDir dir;
   const auto syn = writeSynthetic(dir.file("a.npz"), 4, 12);
-  const AppResult r = run({"-i", dir.file("a.npz"), "--relative-csv", dir.file("rel.csv"),
-                           "--depth-sigma", dir.file("sigma"), "--weight-scale", "4", "-q"});
+  // The stated model: the engine against its dense reference.
+  const AppResult r =
+      run({"-i", dir.file("a.npz"), "--relative-csv", dir.file("rel.csv"), "--depth-sigma",
+           dir.file("sigma"), "--weight-scale", "4", "-q", "--stated-model"});
   ASSERT_EQ(r.code, 0) << r.err;
   DbaOptions o = DbaOptions::droid();
   o.weight_scale = 4;
@@ -89,7 +97,8 @@ TEST(CovarianceApp, RelativeCsvAndDepthSigmaMatchTheDenseReference) {
   const DbaCovariance ref(syn.snapshot, o, dense);
 
   const auto lines = splitLines(readFile(dir.file("rel.csv")));
-  EXPECT_EQ(lines[0], "snapshot,from,to,tx,ty,tz,qx,qy,qz,qw," + app::upperTriangleNames("cov_"));
+  EXPECT_EQ(lines[0], "snapshot,from,to,tx,ty,tz,qx,qy,qz,qw," + app::upperTriangleNames("cov_") +
+                          ",noise_model");
   const auto pairs = syn.snapshot.relativePairs();
   ASSERT_EQ(lines.size(), 1 + pairs.size());
   for (std::size_t p = 0; p < pairs.size(); ++p) {
@@ -235,50 +244,40 @@ TEST(CovarianceApp, BadUsageExitsWithTwo) {
   for (const auto& [args, message] : std::vector<std::pair<std::vector<std::string>, std::string>>{
            {{"-i", in, "--csv", out, "--gauge", "three-pose"},
             "--gauge: unknown gauge 'three-pose', expected two-pose, minimal or droid"},
-           {{"-i", in, "--csv", out, "--self-calibrate-method", "bogus"},
-            "--self-calibrate-method: unknown self-calibration method 'bogus', expected score, "
-            "vce, autocorr, sandwich, nuisance or bootstrap"},
            {{"-i", in, "--csv", out, "--self-calibrate-nodes", "1"},
             "--self-calibrate-nodes: self-calibration nuisance nodes must be 0 (affine) or 2..8 "
             "(G x G bilinear tents)"},
            {{"-i", in, "--csv", out, "--self-calibrate-nodes", "abc"},
             "--self-calibrate-nodes: 'abc' is not an integer"},
-           {{"-i", in, "--csv", out, "--self-calibrate-method", "score", "--self-calibrate-nodes",
-             "3"},
-            "self-calibration nodes apply to the nuisance and bootstrap methods only, not score"},
-           {{"-i", in, "--csv", out, "--self-calibrate-replicates", "8"},
-            "self-calibration replicates apply to the bootstrap method only, not nuisance"},
-           {{"-i", in, "--csv", out, "--self-calibrate-method", "bootstrap",
-             "--self-calibrate-replicates", "3"},
-            "--self-calibrate-replicates: 3 is not in 4..100000"},
+           // A calibration option with the stated model would be ignored: refused.
+           {{"-i", in, "--csv", out, "--stated-model", "--self-calibrate-nodes", "3"},
+            "--self-calibrate-nodes applies to the self-calibrated covariance, not with "
+            "--stated-model"},
+           {{"-i", in, "--csv", out, "--stated-model", "--self-calibrate-depth-noise", "off"},
+            "--self-calibrate-depth-noise applies to the self-calibrated covariance, not with "
+            "--stated-model"},
+           {{"-i", in, "--stated-model", "--edge-csv", out},
+            "--edge-csv applies to the self-calibrated covariance, not with --stated-model"},
+           // The study's methods and their options are not the product's.
+           {{"-i", in, "--csv", out, "--self-calibrate-method", "vce"},
+            "The following arguments were not expected: vce --self-calibrate-method"},
            // Integer options name a non-integer as such (CLI::Range said "not in range").
-           {{"-i", in, "--csv", out, "--self-calibrate-iterations", "many"},
-            "--self-calibrate-iterations: 'many' is not an integer in 1..20"},
            {{"-i", in, "--csv", out, "--converge-iterations", "2.5"},
             "--converge-iterations: '2.5' is not an integer in 1..100000"},
            {{"-i", in, "--csv", out, "--converge-iterations", "99999999999999999999"},
             "--converge-iterations: '99999999999999999999' is not an integer in 1..100000"},
            {{"-i", in, "--csv", out, "--threads", "4097"}, "--threads: 4097 is not in 0..4096"},
            {{"-i", in, "--csv", out, "--threads", "-1"}, "--threads: -1 is not in 0..4096"},
-           {{"-i", in, "--csv", out, "--self-calibrate-resampling", "wild"},
-            "self-calibration resampling applies to the bootstrap method only, not nuisance"},
-           {{"-i", in, "--csv", out, "--self-calibrate-method", "bootstrap",
-             "--self-calibrate-resampling", "block"},
-            "--self-calibrate-resampling: unknown bootstrap resampling 'block', expected "
-            "parametric or wild"},
            {{"-i", in, "--csv", out, "--self-calibrate-depth-noise", "maybe"},
-            "--self-calibrate-depth-noise: maybe not in {on,off}"},
-           {{"-i", in, "--csv", out, "--self-calibrate-method", "bootstrap",
-             "--self-calibrate-depth-noise", "on"},
-            "the depths' noise term applies to the residual methods, not bootstrap (which "
-            "re-solves instead)"}}) {
+            "--self-calibrate-depth-noise: maybe not in {on,off}"}}) {
     const AppResult r = run(args);
     EXPECT_EQ(r.code, 2) << r.err;
     EXPECT_TRUE(contains(r.err, "dba-covariance: " + message + "\n")) << r.err;
   }
 }
 
-// The run summary's self-calibration line: the method, the inflations, the time, the distance
+// The run summary's noise-model line: the self-calibration (the default), the inflations, the
+// time, the distance
 // from the optimum (Gauss-Newton step in sigma and the gradient norm); a snapshot whose state is
 // far from its optimum gets the warning naming it and --converge (which the Python suite and
 // CalibratedSolve.* run).
@@ -290,28 +289,25 @@ TEST(CovarianceApp, SelfCalibrationSummaryLineAndTheFarFromTheOptimumWarning) {
   syn.snapshot.poses_cw(4, 0) += 0.005;
   io::saveSnapshotNpz(dir.file("a.npz"), syn.snapshot);
   const std::string in = dir.file("a.npz"), out = dir.file("o.csv");
-  // --self-calibrate-iterations implies --self-calibrate, as the other sub-options do.
-  const AppResult r = run({"-i", in, "--csv", out, "--weight-scale", "400",
-                           "--self-calibrate-method", "vce", "--self-calibrate-iterations", "2"});
+  const AppResult r = run({"-i", in, "--csv", out, "--weight-scale", "400"});
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* part :
-       {"dba-covariance: self-calibration vce: 1 snapshots, edge inflation median ",
+       {"dba-covariance: noise model: self-calibrated from the residuals (per-edge flow-error "
+        "field): 1 snapshots, edge inflation median ",
         ", global residual scale ", " s per snapshot, Gauss-Newton step to the optimum median ",
         " sigma per sqrt(DoF) (gauge-reduced gradient norm median ", ", 1 far from their optimum"})
-    EXPECT_TRUE(contains(r.err, part)) << part << "\n" << r.err;
-  EXPECT_TRUE(contains(r.err, "dba-covariance: warning: " + in +
-                                  " (snapshot 0): the state is far from the optimum of its "
-                                  "factors (one Gauss-Newton step is "))
-      << r.err;
-  EXPECT_TRUE(contains(r.err, "consider --converge")) << r.err;
-  // Alone it means the default method, which takes one pass: refused, not ignored.
-  const AppResult implied =
-      run({"-i", in, "--csv", out, "--weight-scale", "400", "--self-calibrate-iterations", "2"});
-  EXPECT_EQ(implied.code, 2) << implied.err;
-  EXPECT_TRUE(contains(implied.err,
-                       "dba-covariance: self-calibration iterations apply to the vce, "
-                       "score and autocorr methods only, not nuisance\n"))
-      << implied.err;
+    EXPECT_TRUE(contains(r.noise, part)) << part << "\n" << r.noise;
+  EXPECT_TRUE(contains(r.noise, "dba-covariance: warning: " + in +
+                                    " (snapshot 0): the state is far from the optimum of its "
+                                    "factors (one Gauss-Newton step is "))
+      << r.noise;
+  EXPECT_TRUE(contains(r.noise, "consider --converge")) << r.noise;
+  // The stated model says so.
+  const AppResult stated = run({"-i", in, "--csv", out, "--weight-scale", "400", "--stated-model"});
+  ASSERT_EQ(stated.code, 0) << stated.err;
+  EXPECT_EQ(stated.noise,
+            "dba-covariance: noise model: stated (--stated-model: the snapshots' confidences "
+            "times the weight scale, not calibrated)\n");
 }
 
 // --converge's iteration cap: kOptimumSolveIterations (the simulator's) by default, not the

@@ -61,10 +61,11 @@ struct Fixture {
                                "4", "--snapshots", "3", "--weight-scale", "400", "-q"})
                   .code,
               0);
-    const AppResult r = testing::runApp(app::runCovarianceApp, "dba-covariance",
-                                        {"-i", dir.file("sim"), "--weight-scale", "400", "--csv",
-                                         dir.file("kf.csv"), "--relative-csv", dir.file("rel.csv"),
-                                         "-o", dir.file("poses.rawlog"), "--emit", "all", "-q"});
+    const AppResult r =
+        testing::runApp(app::runCovarianceApp, "dba-covariance",
+                        {"-i", dir.file("sim"), "--weight-scale", "400", "--csv",
+                         dir.file("kf.csv"), "--relative-csv", dir.file("rel.csv"), "-o",
+                         dir.file("poses.rawlog"), "--emit", "all", "-q", "--stated-model"});
     EXPECT_EQ(r.code, 0) << r.err;
   }
   std::vector<std::string> tableArgs() const {
@@ -231,7 +232,7 @@ void writeTransformedTables(const std::string& kf_in, const std::string& rel_in,
       T = G * T;
       f << r.snapshot << ',' << r.keyframe << ',' << app::formatDouble(r.tstamp) << ','
         << app::poseValues(T) << ",0,0,0,0,0,0,"
-        << app::upperTriangleValues(d.asDiagonal() * r.Sigma * d.asDiagonal()) << '\n';
+        << app::upperTriangleValues(d.asDiagonal() * r.Sigma * d.asDiagonal()) << ",stated\n";
     }
   }
   std::ofstream f(rel_out);
@@ -240,7 +241,7 @@ void writeTransformedTables(const std::string& kf_in, const std::string& rel_in,
     Eigen::Isometry3d Z = r.Z;
     Z.translation() *= s;
     f << r.snapshot << ',' << r.from << ',' << r.to << ',' << app::poseValues(Z) << ','
-      << app::upperTriangleValues(d.asDiagonal() * r.Sigma * d.asDiagonal()) << '\n';
+      << app::upperTriangleValues(d.asDiagonal() * r.Sigma * d.asDiagonal()) << ",stated\n";
   }
 }
 
@@ -275,9 +276,9 @@ TEST(EvaluateApp, Sim3AlignmentMakesRelativeNeesIndependentOfFrameAndScale) {
     EXPECT_GT(v, 30 * aligned.at("relative").at(key)) << key.second;
 }
 
-// dba-evaluate --monte-carlo with a self-calibration: the NEES are those of the self-calibrated
-// covariances, as sim::runMonteCarlo computes them with the method's options (and not the raw
-// ones, which correlated flow errors make over-confident).
+// dba-evaluate --monte-carlo by default: the NEES are those of the self-calibrated covariances,
+// as sim::runMonteCarlo computes them with the default options (and not the stated model's,
+// which correlated flow errors make over-confident); --stated-model evaluates the latter.
 TEST(EvaluateApp, MonteCarloModeEvaluatesTheSelfCalibratedCovariances) {
   testing::TempDir dir;
   const std::vector<std::string> scene{"--monte-carlo",
@@ -306,8 +307,8 @@ TEST(EvaluateApp, MonteCarloModeEvaluatesTheSelfCalibratedCovariances) {
     return nlohmann::json::parse(testing::readFile(dir.file(json)))["absolute"]["anees"]
         .get<double>();
   };
-  const double raw = aneesOf({}, "raw.json");
-  const double vce = aneesOf({"--self-calibrate-method", "vce"}, "vce.json");
+  const double raw = aneesOf({"--stated-model"}, "raw.json");
+  const double cal = aneesOf({}, "cal.json");
   sim::ScenarioConfig c;
   c.camera.H = 12;
   c.camera.W = 16;
@@ -317,19 +318,24 @@ TEST(EvaluateApp, MonteCarloModeEvaluatesTheSelfCalibratedCovariances) {
   c.noise.type = sim::NoiseModel::Type::Correlated;
   c.noise.correlation_length_px = 2;
   const sim::Scenario sc(c);
-  SelfCalibrationOptions method;
-  method.method = SelfCalibrationMethod::Vce;
-  const double expected = summarize(sim::runMonteCarlo(sc, 0, 3, c.engineOptions(),
-                                                       sim::PairSelection::Consecutive, {}, &method)
-                                        .samples.absolute)
-                              .anees;
-  EXPECT_NEAR(vce, expected, 1e-9 * expected);
-  EXPECT_GT(std::abs(vce - raw), 0.05 * raw) << "raw " << raw << ", vce " << vce;
+  const SelfCalibrationOptions defaults;
+  const auto anees = [&](const SelfCalibrationOptions* calibration) {
+    return summarize(sim::runMonteCarlo(sc, 0, 3, c.engineOptions(),
+                                        sim::PairSelection::Consecutive, {}, calibration)
+                         .samples.absolute)
+        .anees;
+  };
+  const double expected = anees(&defaults), stated = anees(nullptr);
+  EXPECT_NEAR(cal, expected, 1e-9 * expected);
+  EXPECT_NEAR(raw, stated, 1e-9 * stated);
+  EXPECT_GT(std::abs(cal - raw), 0.05 * raw) << "stated " << raw << ", self-calibrated " << cal;
 }
 
 TEST(EvaluateApp, MonteCarloModeFitsTheInflationOnTheCalibrationRuns) {
   testing::TempDir dir;
-  const AppResult r = evaluate({"--monte-carlo",
+  // The stated model (correlated noise makes it over-confident), fitted k against a reference.
+  const AppResult r = evaluate({"--stated-model",
+                                "--monte-carlo",
                                 "10",
                                 "--calibration-runs",
                                 "4",

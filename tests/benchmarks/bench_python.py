@@ -1,6 +1,6 @@
-"""Call overhead of `import dbacov` (issue 17): Covariance(snapshot) + marginals() timed from
-Python against the same work timed inside C++ (dbacov._dbacov._engine_seconds), on the shared DROID
-snapshot; then the entry points of issue 17b: Covariance(self_calibrate=True) and
+"""Call overhead of `import dbacov`: Covariance(snapshot, stated_model=True) + marginals() timed
+from Python against the same work timed inside C++ (dbacov._dbacov._engine_seconds), on the shared
+DROID snapshot; then the default, self-calibrated Covariance(snapshot) and
 write_pose_rawlog (first call: loads the MRPT bridge; then per call). Run after the build:
 
     PYTHONPATH=build/python /usr/bin/python3 tests/benchmarks/bench_python.py ../shared/data/droid_window_0055.npz
@@ -17,12 +17,12 @@ from dbacov import _dbacov
 
 def main(path, repeats=7, iterations=10):
     snap = dbacov.load(path)
-    dbacov.Covariance(snap).marginals()  # warm up (thread pool, caches)
+    dbacov.Covariance(snap, stated_model=True).marginals()  # warm up (thread pool, caches)
     py, cpp = [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
         for _ in range(iterations):
-            dbacov.Covariance(snap).marginals()
+            dbacov.Covariance(snap, stated_model=True).marginals()
         py.append((time.perf_counter() - t0) / iterations)
         cpp.append(_dbacov._engine_seconds(snap, iterations))
     py_s, cpp_s = min(py), min(cpp)
@@ -31,10 +31,10 @@ def main(path, repeats=7, iterations=10):
     cal = []
     for _ in range(3):
         t0 = time.perf_counter()
-        cov = dbacov.Covariance(snap, self_calibrate=True)
+        cov = dbacov.Covariance(snap)
         cal.append(time.perf_counter() - t0)
-    print(f"Covariance(self_calibrate=True): {min(cal) * 1e3:.1f} ms (best of 3; dba-covariance "
-          "--self-calibrate prints its own 's per snapshot' for the same work)")
+    print(f"Covariance(snapshot), self-calibrated: {min(cal) * 1e3:.1f} ms (best of 3; "
+          "dba-covariance prints its own 's per snapshot' for the same work)")
     with tempfile.TemporaryDirectory() as d:
         out = os.path.join(d, "poses.rawlog")
         t0 = time.perf_counter()

@@ -26,9 +26,9 @@
 #include <string>
 #include <vector>
 
+#include "dbacov/core/calibrated_solve.h"
 #include "dbacov/core/errors.h"
 #include "dbacov/core/self_calibration.h"
-#include "dbacov/sim/calibrated_solve.h"
 #include "dbacov/sim/consistency.h"
 #include "dbacov/sim/monte_carlo.h"
 #include "dbacov/sim/scenario.h"

@@ -13,12 +13,12 @@
 
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/dba_factor.h"
+#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/errors.h"
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/nuisance_basis.h"
 #include "dbacov/core/self_calibration.h"
-#include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/sensor_modes.h"
 #include "fixtures.h"

@@ -12,6 +12,7 @@
 #include "app_runner.h"
 #include "dbacov/app/covariance_app.h"
 #include "dbacov/app/posegraph_app.h"
+#include "dbacov/core/pipeline.h"
 #include "dbacov/core/pose_graph.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/io/snapshot_npz.h"
@@ -425,7 +426,9 @@ TEST(PoseGraphFiles, StereoAndRgbdSequencesKeepTheirDepthOnlyFactorsInTheGraph) 
       io::saveSnapshotNpz(dir.file("s" + std::to_string(i) + ".npz"), sc.simulate(i).snapshot);
     std::filesystem::create_directory(dir.file("out"));
     const auto graph = [&](const std::string& name, std::vector<std::string> extra) {
-      std::vector<std::string> args{"-i", dir.path(), "--graph", dir.file("out/" + name)};
+      // The stated model: what the readings add at their claimed weight.
+      std::vector<std::string> args{"-i", dir.path(), "--graph", dir.file("out/" + name),
+                                    "--stated-model"};
       args.insert(args.end(), extra.begin(), extra.end());
       const AppResult r = testing::runApp(app::runCovarianceApp, "dba-covariance", args);
       EXPECT_EQ(r.code, 0) << r.err;
@@ -448,20 +451,21 @@ TEST(PoseGraphFiles, StereoAndRgbdSequencesKeepTheirDepthOnlyFactorsInTheGraph) 
 }
 
 TEST(PoseGraphFiles, SelfCalibratedSequenceGraphDoesNotDependOnTheClaimedWeightScale) {
-  // --graph with --self-calibrate: the sequence's flows enter at each snapshot's calibrated
-  // variance factors. A weight scale claimed 100x larger is then corrected (vce's factors are
-  // 100x larger), and the graphs agree; uncalibrated, their information differs 100x.
+  // --graph, self-calibrated (the default): the sequence's flows enter at each snapshot's
+  // calibrated variance factors. A weight scale claimed 100x larger is then corrected (the white
+  // scales are 100x larger), and the graphs agree; with --stated-model their information differs
+  // 100x.
   testing::TempDir dir;
   for (int i = 0; i < 3; ++i)
     testing::writeTinySnapshot(dir.file("s" + std::to_string(i) + ".npz"), i + 1, i, 5 + i);
   const auto graphAt = [&](const std::string& name, const char* weight_scale, bool calibrate) {
     std::vector<std::string> args{"-i",           dir.path(),       "--graph",
                                   dir.file(name), "--weight-scale", weight_scale};
-    if (calibrate) args.insert(args.end(), {"--self-calibrate-method", "vce"});
+    if (!calibrate) args.push_back("--stated-model");
     const AppResult r = testing::runApp(app::runCovarianceApp, "dba-covariance", args);
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(contains(r.err,
-                       "self-calibrated (vce): each snapshot's edges at their variance "
+                       "self-calibrated (nuisance): each snapshot's edges at their variance "
                        "factors"),
               calibrate)
         << r.err;
@@ -529,9 +533,11 @@ TEST(PoseGraphFiles, DbaCovarianceWritesTheGraphOfTheSequence) {
   // Nodes take their latest estimate; edges the last snapshot with both keyframes.
   for (int k = 0; k < 7; ++k)
     EXPECT_LT((g.nodes.at(k).matrix() - snaps[2].T_wc(k).matrix()).norm(), 1e-12) << "node " << k;
-  DbaOptions o;
-  o.weight_scale = 4;
-  const DbaCovariance last(snaps[2], o);
+  // The default pipeline's covariance (self-calibrated) of the last snapshot.
+  PipelineOptions p;
+  p.engine.weight_scale = 4;
+  const PipelineResult result = computeCovariance(snaps[2], p);
+  const DbaCovariance& last = *result.cov;
   for (const PoseGraphEdge& e : g.edges) {
     EXPECT_LT(e.from, e.to);
     if (e.from == 0 && e.to == 1) ADD_FAILURE() << "the gauge pair has no information";

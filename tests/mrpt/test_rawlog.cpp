@@ -10,6 +10,7 @@
 #include "dbacov/app/covariance_app.h"
 #include "dbacov/app/droid2rawlog_app.h"
 #include "dbacov/core/covariance.h"
+#include "dbacov/core/pipeline.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/mrpt/observation_dba_snapshot.h"
 #include "dbacov/mrpt/pose_conversion.h"
@@ -213,9 +214,13 @@ TEST(Rawlog, ChainNpzToRawlogToPoseRawlog) {
   for (int i = 0; i < 3; ++i) {
     const Snapshot& s = syn[i].snapshot;
     const int k = s.graphKeyframes().back();
-    const DbaCovariance cov(s, o);
+    // The default pipeline (self-calibrated), named so by the observations' label.
+    PipelineOptions p;
+    p.engine = o;
+    const PipelineResult result = computeCovariance(s, p);
+    const DbaCovariance& cov = *result.cov;
     const auto expected = mrpt_bridge::toPoseGaussian(s.T_wc(k), cov.marginal(k));
-    EXPECT_EQ(poses[i]->sensorLabel, "DBA_COVARIANCE");
+    EXPECT_EQ(poses[i]->sensorLabel, "DBA_COVARIANCE_CALIBRATED");
     EXPECT_DOUBLE_EQ(mrpt::Clock::toDouble(poses[i]->timestamp), (*s.timestamps_s)[k]);
     EXPECT_NEAR((poses[i]->pose.mean.translation() - expected.mean.translation()).norm(), 0, 1e-12);
     for (int a = 0; a < 6; ++a)
@@ -231,11 +236,13 @@ TEST(Rawlog, ChainNpzToRawlogToPoseRawlog) {
   EXPECT_EQ(readPoses(dir.file("all.rawlog")).front()->sensorLabel, "X");
 
   // final: each keyframe once (7 distinct), in time order, from the last snapshot holding it.
+  // (the stated model here: the engine's covariance, DBA_COVARIANCE)
   r = covariance({"-i", dir.file("snap.rawlog"), "-o", dir.file("final.rawlog"), "--weight-scale",
-                  "4", "--emit", "final", "-q"});
+                  "4", "--emit", "final", "-q", "--stated-model"});
   ASSERT_EQ(r.code, 0) << r.err;
   poses = readPoses(dir.file("final.rawlog"));
   ASSERT_EQ(poses.size(), 7u);
+  EXPECT_EQ(poses.front()->sensorLabel, "DBA_COVARIANCE");
   const DbaCovariance last(syn[2].snapshot, o);
   for (int k = 0; k < 7; ++k) {
     EXPECT_DOUBLE_EQ(mrpt::Clock::toDouble(poses[k]->timestamp),

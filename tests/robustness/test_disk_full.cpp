@@ -32,7 +32,7 @@ TEST(DiskFull, AnOutputThatFailsMidRunIsGivenUpAndTheOthersGoOn) {
   const testing::AppResult r = testing::runCommand(
       "bash -c \"trap '' XFSZ; ulimit -f 8; exec " + kBin + "dba-covariance -i " + dir.file("in") +
       " --csv " + dir.file("k.csv") + " -o " + dir.file("p.rawlog") + " --emit all --graph " +
-      dir.file("g") + " --weight-scale 4\"");
+      dir.file("g") + " --weight-scale 4 --stated-model\"");
   EXPECT_EQ(r.code, 1);
   const std::vector<std::string> lines = testing::splitLines(r.out);
   ASSERT_EQ(lines.size(), 4u) << r.out;

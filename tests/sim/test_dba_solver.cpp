@@ -13,8 +13,8 @@
 #include <set>
 
 #include "dbacov/core/dba_factor.h"
+#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/linearization.h"
-#include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "dense_reference.h"

@@ -17,6 +17,7 @@
 #include "dbacov/app/plots.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/criteria.h"
+#include "dbacov/core/pipeline.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/mrpt/scene.h"
 #include "temp_dir.h"
@@ -61,10 +62,11 @@ struct Expected {
   bool source;
 };
 std::map<double, Expected> expectedKeyframes(const std::vector<Snapshot>& snaps) {
-  DbaOptions o = DbaOptions::droid();
-  o.weight_scale = 4;
+  // The default pipeline (self-calibrated), as dba-covariance computes them.
+  PipelineOptions p;
+  p.engine.weight_scale = 4;
   std::vector<DbaCovariance> covs;
-  for (const auto& s : snaps) covs.emplace_back(s, o);
+  for (const auto& s : snaps) covs.push_back(std::move(*computeCovariance(s, p).cov));
   std::map<double, Expected> out;
   for (std::size_t a = 0; a < snaps.size(); ++a)
     for (int k : covs[a].keyframes()) {

@@ -87,7 +87,9 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
   detail::addEnumOption(cli, "--emit", opt.emit,
                         "Keyframes in the rawlog: latest (newest of each snapshot), all, final "
                         "(each once, from its last snapshot)");
-  cli.add_option("--label", opt.label, "sensorLabel of the rawlog observations");
+  cli.add_option("--label", opt.label,
+                 "sensorLabel of the rawlog observations (default DBA_COVARIANCE_CALIBRATED, "
+                 "with --stated-model DBA_COVARIANCE)");
   cli.add_option("--fps", opt.fps,
                  "Camera frame rate: keyframe times = start + tstamp / fps for snapshots without "
                  "'timestamps_s' (older DROID dumps, the shared snapshot); finite, > 0; -o needs "
@@ -152,7 +154,7 @@ Sinks makeSinks(const CovarianceAppOptions& opt, const DbaOptions& engine, Graph
     sinks.push_back(std::move(g));
   }
   if (!opt.rawlog_path.empty())
-    sinks.push_back(std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.label, opt.emit));
+    sinks.push_back(std::make_unique<PoseRawlogSink>(opt.rawlog_path, opt.rawlogLabel(), opt.emit));
   detail::VisualCli visual;
   visual.scene = opt.scene;
   visual.plots_dir = opt.plots_dir;
@@ -237,7 +239,7 @@ class Run {
     if (!opt_.quiet) {
       for (const std::string& w : selfcal_.warnings())
         err_ << "dba-covariance: warning: " << w << '\n';
-      if (selfcal_.active()) err_ << "dba-covariance: " << selfcal_.summaryLine() << '\n';
+      err_ << "dba-covariance: " << selfcal_.summaryLine() << '\n';
     }
     if (!opt_.quiet) {
       err_ << "dba-covariance: " << sum_.line();

@@ -46,7 +46,7 @@ Files: --csv and --relative-csv are dba-covariance's tables; keyframe times are 
   [x y z yaw pitch roll] to the tangent. Ground truth: TUM (t tx ty tz qx qy qz qw, camera-to-world)
   or EuRoC's data.csv (ns, body frame: give the camera's T_BS with --body-to-camera).
 Monte Carlo: --monte-carlo N simulates every snapshot of the scenario N times (noise draws), with
-  covariances at the scenario's weight scale and gauge. --calibration-runs M fits k on runs 0..M-1
+  self-calibrated covariances (--stated-model: at the scenario's weight scale) and its gauge. --calibration-runs M fits k on runs 0..M-1
   and evaluates runs M..N-1 (held out).
 Exit status: 0 success, 1 when an input or output failed or nothing could be evaluated, 2 on bad
 usage.)";
@@ -63,13 +63,12 @@ void checkUsage(const EvaluateOptions& o) {
   plan.output(o.json, "--json");
   plan.output(o.samples_csv, "--samples-csv");
   plan.check();
-  if (o.self_calibration.enabled) {
-    if (o.monte_carlo == 0)
-      throw std::invalid_argument(
-          "--self-calibrate applies to --monte-carlo only (dba-covariance --self-calibrate "
-          "computes self-calibrated files)");
-    o.self_calibration.options();  // refuses an unknown method
-  }
+  const SelfCalibrationAppOptions& sc = o.self_calibration;
+  if ((sc.stated_model || sc.nodes >= 0 || !sc.depth_noise.empty()) && o.monte_carlo == 0)
+    throw std::invalid_argument(
+        std::string(sc.stated_model ? "--stated-model" : "the self-calibration options") +
+        " apply to --monte-carlo only (dba-covariance computes the files' covariances)");
+  sc.options();  // refuses a calibration option with --stated-model
   for (const char* flag : {"--fps", "--start-time", "--weight-scale"})
     o.scenario.number(flag);  // a malformed number is bad usage, found before any work
   if (o.calibrate && o.inflation)
@@ -217,7 +216,7 @@ std::vector<ReportSection> monteCarloSections(const EvaluateOptions& o,
     return "runs " + std::to_string(a) + ".." + std::to_string(b - 1);
   };
   std::optional<SelfCalibrationOptions> selfcal;
-  if (o.self_calibration.enabled) selfcal = o.self_calibration.options();
+  if (o.self_calibration.calibrated()) selfcal = o.self_calibration.options();
   const SelfCalibrationOptions* sc_options = selfcal ? &*selfcal : nullptr;
   const sim::MonteCarloResult eval =
       sim::runMonteCarlo(sc, first + M, o.monte_carlo - M, engine, pairs, step, sc_options);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "dbacov/app/csv_format.h"
+#include "dbacov/app/self_calibration_options.h"
 #include "dbacov/core/criteria.h"
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/io/npy.h"
@@ -19,11 +20,11 @@ namespace dbacov::app {
 std::string keyframeCsvHeader() {
   return "snapshot,keyframe,tstamp,tx,ty,tz,qx,qy,qz,qw,log10_det,d_opt,a_opt,e_opt,log10_det_rot,"
          "log10_det_trans," +
-         upperTriangleNames("cov_");
+         upperTriangleNames("cov_") + ",noise_model";
 }
 
 std::string relativeCsvHeader() {
-  return "snapshot,from,to,tx,ty,tz,qx,qy,qz,qw," + upperTriangleNames("cov_");
+  return "snapshot,from,to,tx,ty,tz,qx,qy,qz,qw," + upperTriangleNames("cov_") + ",noise_model";
 }
 
 CsvSink::CsvSink(const std::string& path, const std::string& header) : file_(path) {
@@ -33,6 +34,13 @@ CsvSink::CsvSink(const std::string& path, const std::string& header) : file_(pat
 void CsvSink::commit() {
   file_.commit();
 }
+
+namespace {
+/// The noise_model column: whether the covariance is self-calibrated or of the stated model.
+const char* noiseModel(const DbaCovariance& cov) {
+  return noiseModelName(!cov.summary().self_calibration.method.empty());
+}
+}  // namespace
 
 KeyframeCsvSink::KeyframeCsvSink(const std::string& path) : CsvSink(path, keyframeCsvHeader()) {}
 
@@ -48,7 +56,7 @@ void KeyframeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
          << poseValues(cov.T_wc(k));
     for (double v : {c.log10_det, c.d_opt, c.a_opt, c.e_opt, c.log10_det_rot, c.log10_det_trans})
       rows << ',' << formatDouble(v);
-    rows << ',' << upperTriangleValues(Sigma) << '\n';
+    rows << ',' << upperTriangleValues(Sigma) << ',' << noiseModel(cov) << '\n';
   }
   append(rows.str());
 }
@@ -60,7 +68,7 @@ void RelativeCsvSink::add(const Snapshot& s, const DbaCovariance& cov) {
   for (const auto& [a, b] : s.relativePairs())
     rows << s.label() << ',' << a << ',' << b << ','
          << poseValues(cov.T_wc(a).inverse() * cov.T_wc(b)) << ','
-         << upperTriangleValues(cov.relative(a, b)) << '\n';
+         << upperTriangleValues(cov.relative(a, b)) << ',' << noiseModel(cov) << '\n';
   append(rows.str());
 }
 

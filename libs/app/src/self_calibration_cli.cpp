@@ -8,50 +8,38 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dbacov/core/calibrated_solve.h"
+#include "dbacov/core/dba_solver.h"
 #include "dbacov/io/atomic_file.h"
-#include "dbacov/sim/bootstrap.h"
-#include "dbacov/sim/calibrated_solve.h"
-#include "dbacov/sim/dba_solver.h"
 #include "engine_cli.h"
 
 namespace dbacov::app {
 
+PipelineOptions SelfCalibrationAppOptions::pipeline(const DbaOptions& engine,
+                                                    const CovarianceOptions& solver) const {
+  PipelineOptions p;
+  p.engine = engine;
+  p.solver = solver;
+  p.stated_model = stated_model;
+  p.calibration = options();
+  p.converge = converge;
+  p.converge_solver = convergeSolver();
+  return p;
+}
+
 SelfCalibrationOptions SelfCalibrationAppOptions::options() const {
+  if (stated_model && (nodes >= 0 || !depth_noise.empty() || !edge_csv.empty()))
+    throw std::invalid_argument(
+        std::string(nodes >= 0             ? "--self-calibrate-nodes"
+                    : !depth_noise.empty() ? "--self-calibrate-depth-noise"
+                                           : "--edge-csv") +
+        " applies to the self-calibrated covariance, not with --stated-model");
   SelfCalibrationOptions o;
-  if (!method.empty()) o.method = parseSelfCalibrationMethod(method);
-  if (iterations > 0) {
-    // nuisance, sandwich and bootstrap take one pass: a number of them would be ignored.
-    if (o.method != SelfCalibrationMethod::Vce && o.method != SelfCalibrationMethod::Score &&
-        o.method != SelfCalibrationMethod::Autocorr)
-      throw std::invalid_argument(std::string("self-calibration iterations apply to the vce, ") +
-                                  "score and autocorr methods only, not " + toString(o.method));
-    o.iterations = iterations;
-  }
-  if (nodes >= 0) {
-    if (o.method != SelfCalibrationMethod::Nuisance && o.method != SelfCalibrationMethod::Bootstrap)
-      throw std::invalid_argument(std::string("self-calibration nodes apply to the nuisance ") +
-                                  "and bootstrap methods only, not " + toString(o.method));
-    o.nuisance_nodes = nodes;
-  }
-  if (replicates >= 0) {
-    if (o.method != SelfCalibrationMethod::Bootstrap)
-      throw std::invalid_argument(std::string("self-calibration replicates apply to the ") +
-                                  "bootstrap method only, not " + toString(o.method));
-    o.bootstrap_replicates = replicates;
-  }
-  if (!resampling.empty()) {
-    if (o.method != SelfCalibrationMethod::Bootstrap)
-      throw std::invalid_argument(std::string("self-calibration resampling applies to the ") +
-                                  "bootstrap method only, not " + toString(o.method));
-    o.bootstrap_resampling = parseEnum<BootstrapResampling>(resampling);
-  }
+  if (nodes >= 0) o.nuisance_nodes = nodes;
   if (!depth_noise.empty()) {
     if (depth_noise != "on" && depth_noise != "off")
       throw std::invalid_argument("self-calibration depth noise is on or off, not '" + depth_noise +
                                   "'");
-    if (depth_noise == "on" && o.method == SelfCalibrationMethod::Bootstrap)
-      throw std::invalid_argument(std::string("the depths' noise term applies to the residual ") +
-                                  "methods, not bootstrap (which re-solves instead)");
     o.depth_noise = depth_noise == "on";
   }
   o.validate();
@@ -67,23 +55,15 @@ DbaSolverOptions SelfCalibrationAppOptions::convergeSolver() const {
 namespace detail {
 
 void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool outputs) {
-  cli.add_flag("--self-calibrate", o.enabled,
-               "Estimate each edge's noise (scale and correlation) from the snapshot's residuals "
-               "and inflate its pixel information accordingly (no ground truth)");
-  cli.add_option("--self-calibrate-method", o.method,
-                 enumNameList<SelfCalibrationMethod>() + " (default " +
-                     toString(SelfCalibrationOptions{}.method) + "); implies --self-calibrate")
-      ->check(enumValidator<SelfCalibrationMethod>())
-      ->each([&o](const std::string&) { o.enabled = true; });
-  cli.add_option("--self-calibrate-iterations", o.iterations,
-                 "Reweighting passes of vce/score/autocorr (default 1); implies --self-calibrate")
-      ->check(integerIn(1, 20))
-      ->each([&o](const std::string&) { o.enabled = true; });
+  cli.add_flag("--stated-model", o.stated_model,
+               "Covariances of the noise the snapshot states (confidences x weight scale, an "
+               "arbitrary solver scale in DROID) instead of the default: the noise model "
+               "self-calibrated from each snapshot's residuals (a per-edge flow-error field, "
+               "white scale and the depths' second-order term)");
   cli.add_option("--self-calibrate-nodes", o.nodes,
-                 "nuisance: the per-edge flow error field, 0 = affine, G = affine + G x G "
-                 "bilinear spline per channel (default " +
-                     std::to_string(SelfCalibrationOptions{}.nuisance_nodes) +
-                     "); implies --self-calibrate")
+                 "The per-edge flow-error field: 0 = affine, G = affine + G x G bilinear spline "
+                 "per channel (default " +
+                     std::to_string(SelfCalibrationOptions{}.nuisance_nodes) + ")")
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {
             // The core's own check and message (SelfCalibrationOptions::validate).
@@ -99,36 +79,20 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
             }
             return {};
           },
-          "INT in {0, 2..8}"))
-      ->each([&o](const std::string&) { o.enabled = true; });
-  cli.add_option("--self-calibrate-replicates", o.replicates,
-                 "bootstrap: re-solved replicates of each snapshot (default " +
-                     std::to_string(SelfCalibrationOptions{}.bootstrap_replicates) +
-                     "); implies --self-calibrate")
-      ->check(integerIn(4, 100000))
-      ->each([&o](const std::string&) { o.enabled = true; });
-  cli.add_option("--self-calibrate-resampling", o.resampling,
-                 "bootstrap: the replicates' white noise, " + enumNameList<BootstrapResampling>() +
-                     " (default " + toString(SelfCalibrationOptions{}.bootstrap_resampling) +
-                     "; wild = each row's own residual with a random sign); implies "
-                     "--self-calibrate")
-      ->check(enumValidator<BootstrapResampling>())
-      ->each([&o](const std::string&) { o.enabled = true; });
+          "INT in {0, 2..8}"));
   cli.add_option("--self-calibrate-depth-noise", o.depth_noise,
                  std::string("on|off: add the depths' second-order noise term, what the "
                              "linearization misses where depths are poorly determined (default ") +
-                     (SelfCalibrationOptions{}.depth_noise ? "on" : "off") +
-                     "; not with bootstrap); implies --self-calibrate")
-      ->check(CLI::IsMember({"on", "off"}))
-      ->each([&o](const std::string&) { o.enabled = true; });
+                     (SelfCalibrationOptions{}.depth_noise ? "on" : "off") + ")")
+      ->check(CLI::IsMember({"on", "off"}));
   if (!outputs) return;
   cli.add_option("--edge-csv", o.edge_csv,
-                 "With --self-calibrate: one row per (snapshot, edge): pixels, residual RMS, "
-                 "inflation, effective pixels, method");
+                 "One row per (snapshot, edge) of the self-calibration: pixels, residual RMS, "
+                 "white-noise variance factor, effective pixels");
   cli.add_flag("--converge", o.converge,
                "Solve each snapshot's DBA to the optimum of its own factors (project's solver) "
-               "before computing covariances; outputs then hold the solved poses. With "
-               "--self-calibrate, stereo edges and RGB-D readings are re-weighted at their "
+               "before computing covariances; outputs then hold the solved poses. Unless "
+               "--stated-model, stereo edges and RGB-D readings are re-weighted at their "
                "calibrated variance ratio to the flow and the DBA re-solved until it settles "
                "(at mis-claimed weights the solved state is biased)");
   cli.add_option("--converge-iterations", o.converge_iterations,
@@ -141,10 +105,7 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
 }
 
 SelfCalibrationRun::SelfCalibrationRun(const SelfCalibrationCli& cli)
-    : cli_(cli), options_(cli.options()) {
-  if (!cli_.edge_csv.empty() && !cli_.enabled)
-    throw std::invalid_argument("--edge-csv needs --self-calibrate");
-}
+    : cli_(cli), options_(cli.options()) {}
 
 namespace {
 std::string number(double x) {
@@ -166,22 +127,10 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   const auto t0 = std::chrono::steady_clock::now();
   bool converged = false;
   const std::string name = s.name();
-  // With --self-calibrate, --converge solves at the calibrated weights of the factors on the
-  // depths alone (stereo edges, RGB-D readings): at the claimed ones the estimate is biased when
-  // they are mis-weighted against the flow (calibrated_solve.h). The covariance then belongs to
-  // those weights.
-  DbaOptions oc = o;
-  std::optional<CalibratedSolve> reweighted;
-  if (cli_.converge) {
-    DbaSolverSummary sum;
-    if (cli_.enabled) {
-      reweighted = solveDbaAtCalibratedWeights(s, o, kCalibratedMaxSolves,
-                                               kCalibratedRatioTolerance, cli_.convergeSolver());
-      oc = reweighted->options;
-      sum = reweighted->solver;
-    } else {
-      sum = solveDba(s, o, cli_.convergeSolver());
-    }
+  PipelineResult result = computeCovariance(s, cli_.pipeline(o, solver));
+  const std::optional<CalibratedSolve>& reweighted = result.reweighted;
+  if (result.solve) {
+    const DbaSolverSummary& sum = *result.solve;
     converged = sum.converged();
     // A solve stopped by the cap says which cap and how to raise it.
     const auto cap = [&](const DbaSolverSummary& solve) {
@@ -208,14 +157,14 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
                : std::string()) +
           ")";
   }
-  if (!cli_.enabled) {
+  if (!result.calibration) {
     std::lock_guard<std::mutex> lock(mutex_);
     converged_ += converged;
     if (!text.empty()) warnings_[s.index] = text;
-    return std::make_unique<DbaCovariance>(s, o, solver);
+    return std::move(result.cov);
   }
-  const SelfCalibration cal = runSelfCalibration(s, oc, options_);
-  auto cov = std::make_unique<DbaCovariance>(selfCalibratedCovariance(s, oc, solver, cal));
+  const SelfCalibration& cal = *result.calibration;
+  std::unique_ptr<DbaCovariance> cov = std::move(result.cov);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const bool unreliable = cal.optimum.unreliable();
@@ -279,16 +228,9 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
     for (int e = 0; e < s.numEdges(); ++e)
       if (s.ii[e] == s.jj[e]) stereo_factors_.push_back(reweighted->edge_factors[e]);
   }
-  if (cal.method == SelfCalibrationMethod::Nuisance ||
-      cal.method == SelfCalibrationMethod::Bootstrap) {
-    field_sigmas_.push_back(cal.nuisance_sigma);
-    fine_sigmas_.push_back(cal.nuisance_fine_sigma);
-  }
-  if (cal.method == SelfCalibrationMethod::Bootstrap) {
-    boot_scales_.push_back(cal.bootstrap_scale);
-    boot_failed_ += cal.bootstrap_failed;
-  }
-  if (cal.depth_noise && cal.method != SelfCalibrationMethod::Bootstrap) {
+  field_sigmas_.push_back(cal.nuisance_sigma);
+  fine_sigmas_.push_back(cal.nuisance_fine_sigma);
+  if (cal.depth_noise) {
     depth_shares_.push_back(cov->summary().self_calibration.depth_noise_share);
     kurtoses_.push_back(cov->summary().self_calibration.depth_noise_kurtosis);
     cross_kurtoses_.push_back(cov->summary().self_calibration.depth_noise_cross_kurtosis);
@@ -332,9 +274,14 @@ std::string SelfCalibrationRun::summaryLine() const {
       os << ", stereo edges' weights divided by " << number(median(stereo_factors_));
     os << ")";
   }
-  if (!cli_.enabled) return os.str();
   if (cli_.converge) os << "; ";
-  os << "self-calibration " << toString(options_.method) << ": " << snapshots_ << " snapshots";
+  if (!cli_.calibrated()) {
+    os << "noise model: stated (--stated-model: the snapshots' confidences times the weight "
+          "scale, not calibrated)";
+    return os.str();
+  }
+  os << "noise model: self-calibrated from the residuals (per-edge flow-error field): "
+     << snapshots_ << " snapshots";
   if (!inflations_.empty()) {
     const auto [lo, hi] = std::minmax_element(inflations_.begin(), inflations_.end());
     os << ", edge inflation median " << number(median(inflations_)) << " (" << number(*lo) << " to "
@@ -347,16 +294,6 @@ std::string SelfCalibrationRun::summaryLine() const {
     if (options_.nuisance_nodes >= 2)
       os << ", " << number(median(fine_sigmas_)) << " px (" << options_.nuisance_nodes << "x"
          << options_.nuisance_nodes << " spline)";
-  }
-  if (!boot_scales_.empty()) {
-    const auto [lo, hi] = std::minmax_element(boot_scales_.begin(), boot_scales_.end());
-    os << ", bootstrap scale median " << number(median(boot_scales_)) << " (" << number(*lo)
-       << " to " << number(*hi) << ", " << options_.bootstrap_replicates
-       << " replicates per snapshot";
-    if (options_.bootstrap_resampling != BootstrapResampling::Parametric)
-      os << ", " << toString(options_.bootstrap_resampling) << " resampling";
-    if (boot_failed_) os << ", " << boot_failed_ << " unconverged left out";
-    os << ")";
   }
   if (!depth_shares_.empty())
     os << ", depths' second-order term median +" << number(100 * median(depth_shares_))

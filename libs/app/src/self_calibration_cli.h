@@ -22,8 +22,8 @@ namespace dbacov::app::detail {
 
 using SelfCalibrationCli = SelfCalibrationAppOptions;
 
-/// Adds --self-calibrate, --self-calibrate-method, --self-calibrate-iterations and, with
-/// `outputs`, --edge-csv and --converge.
+/// Adds --stated-model, --self-calibrate-nodes, --self-calibrate-depth-noise and, with `outputs`,
+/// --edge-csv, --converge and --converge-iterations.
 void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool outputs);
 
 /// One run's self-calibration: computes each snapshot's covariance (thread-safe), collects the
@@ -31,7 +31,7 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
 class SelfCalibrationRun {
  public:
   explicit SelfCalibrationRun(const SelfCalibrationCli& cli);
-  bool active() const { return cli_.enabled || cli_.converge; }
+  bool active() const { return cli_.calibrated() || cli_.converge; }
 
   /// The covariance of one snapshot: with --converge the snapshot's DBA is solved first (its
   /// state is overwritten), with --self-calibrate the covariance is self-calibrated. A warning
@@ -42,8 +42,8 @@ class SelfCalibrationRun {
   std::vector<std::string> warnings() const;
   /// Writes --edge-csv (snapshots in input order) atomically. No-op without --edge-csv.
   void commit() const;
-  /// "self-calibration score: 12 snapshots, edge inflation median 3.1 (0.9-40), ..."; empty when
-  /// inactive.
+  /// "noise model: self-calibrated from the residuals (...): 12 snapshots, edge inflation median
+  /// 3.1 (0.9 to 40), ..." or "noise model: stated (...)", after --converge's counts.
   std::string summaryLine() const;
 
  private:
@@ -53,12 +53,10 @@ class SelfCalibrationRun {
   std::map<std::int64_t, std::string> rows_;  ///< per snapshot index, CSV rows
   std::vector<double> inflations_, scales_, steps_, gradients_;
   std::vector<double> field_sigmas_, fine_sigmas_;  ///< nuisance: σ_a, σ_f per snapshot
-  std::vector<double> boot_scales_;                 ///< bootstrap: k per snapshot
   std::vector<double> depth_shares_;    ///< what the depths' term adds to the trace, per snapshot
   std::vector<double> kurtoses_;        ///< the residuals' excess kurtosis it used, per snapshot
   std::vector<double> cross_kurtoses_;  ///< the flow axes' joint fourth cumulant, per snapshot
   std::vector<double> sensor_scales_;   ///< RGB-D: the readings' variance factor, per snapshot
-  int boot_failed_ = 0;                 ///< bootstrap: unconverged replicates
   std::map<std::int64_t, std::string> warnings_;
   /// --converge at the calibrated weights: snapshots re-solved, their solves and factors.
   int reweighted_ = 0;

@@ -2,6 +2,7 @@
 
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/errors.h"
+#include "dbacov/core/pipeline.h"
 #include "dbacov/sim/bootstrap.h"
 
 namespace dbacov::sim {
@@ -16,12 +17,19 @@ EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& sim, const DbaOption
                                    const SelfCalibrationOptions* self_calibration) {
   const Snapshot& s = sim.snapshot;
   // The covariances' numerical errors do not name their snapshot (the callers do): name the run's.
+  // The product's pipeline (computeCovariance) for its own method; a study method (bootstrap,
+  // vce, ...) through runSelfCalibration.
   const auto covariance = [&]() {
     try {
-      return self_calibration
-                 ? selfCalibratedCovariance(s, options, {},
-                                            runSelfCalibration(s, options, *self_calibration))
-                 : DbaCovariance(s, options);
+      if (!self_calibration || self_calibration->method == SelfCalibrationMethod::Nuisance) {
+        PipelineOptions p;
+        p.engine = options;
+        p.stated_model = !self_calibration;
+        if (self_calibration) p.calibration = *self_calibration;
+        return std::move(*computeCovariance(s, p).cov);
+      }
+      return selfCalibratedCovariance(s, options, {},
+                                      runSelfCalibration(s, options, *self_calibration));
     } catch (const NumericalError& e) {
       throw NumericalError(s.name() + ": " + e.what(), e.keyframes());
     }

@@ -23,7 +23,7 @@ struct CovarianceAppOptions {
   std::vector<std::string> inputs;  ///< .npz files, directories of them, snapshot rawlogs
   std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path, graph_prefix;
   EmitMode emit = EmitMode::Latest;
-  std::string label = "DBA_COVARIANCE";
+  std::string label;  ///< --label; empty: the noise model's default (rawlogLabel)
   GraphEdges graph_edges = GraphEdges::Covisibility;  ///< --graph-edges (sequence_information.h)
   std::optional<double> fps;     ///< keyframe times = start + tstamp / fps without 'timestamps_s'
   double start_time = 0;         ///< --start-time: time of tstamp 0 with --fps
@@ -31,13 +31,19 @@ struct CovarianceAppOptions {
   CovarianceOptions covariance;  ///< --solver, --ordering; depth variances set by the outputs
   SceneOutputOptions scene;      ///< --scene, --snapshot, ...
   std::string plots_dir;         ///< --plots
-  SelfCalibrationAppOptions self_calibration;  ///< --self-calibrate, --edge-csv, --converge
+  SelfCalibrationAppOptions self_calibration;  ///< --stated-model, --edge-csv, --converge, ...
   std::size_t threads = 0;                     ///< 0 = all cores
   FailurePolicy policy = FailurePolicy::KeepGoing;
   bool quiet = false;
 
   /// True when any output is requested.
   bool anyOutput() const;
+  /// The rawlog observations' sensorLabel: --label, or DBA_COVARIANCE_CALIBRATED for the
+  /// self-calibrated covariances and DBA_COVARIANCE for --stated-model.
+  std::string rawlogLabel() const {
+    if (!label.empty()) return label;
+    return self_calibration.calibrated() ? "DBA_COVARIANCE_CALIBRATED" : "DBA_COVARIANCE";
+  }
 };
 
 /// Runs the app on parsed options: messages and the summary line go to `err`. Returns 0 on

@@ -53,7 +53,8 @@ class CsvSink : public OutputSink {
   io::AtomicOutputFile file_;
 };
 
-/// `--csv`: one row per (snapshot, graph keyframe), header keyframeCsvHeader().
+/// `--csv`: one row per (snapshot, graph keyframe), header keyframeCsvHeader(); the last column,
+/// noise_model, is "self-calibrated" or "stated" (--stated-model).
 class KeyframeCsvSink final : public CsvSink {
  public:
   explicit KeyframeCsvSink(const std::string& path);
@@ -61,7 +62,7 @@ class KeyframeCsvSink final : public CsvSink {
 };
 
 /// `--relative-csv`: one row per (snapshot, pair of Snapshot::relativePairs()), header
-/// relativeCsvHeader(); relative pose T_wc_from⁻¹ T_wc_to and its tangent covariance.
+/// relativeCsvHeader(); relative pose T_wc_from⁻¹ T_wc_to, its tangent covariance and noise_model.
 class RelativeCsvSink final : public CsvSink {
  public:
   explicit RelativeCsvSink(const std::string& path);

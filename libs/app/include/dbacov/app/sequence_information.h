@@ -39,11 +39,11 @@
 #include <Eigen/Geometry>
 #include <Eigen/SparseCore>
 
+#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/pose_graph.h"
 #include "dbacov/core/snapshot.h"
-#include "dbacov/sim/dba_solver.h"
 
 namespace dbacov::app {
 

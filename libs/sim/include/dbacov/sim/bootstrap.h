@@ -27,10 +27,10 @@
 // (replicates in parallel, each its own seeded stream: results do not depend on the threads).
 #pragma once
 
+#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/core/snapshot.h"
-#include "dbacov/sim/dba_solver.h"
 
 namespace dbacov {
 

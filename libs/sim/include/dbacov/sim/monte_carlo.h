@@ -19,10 +19,10 @@
 #include <string>
 #include <vector>
 
+#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/sim/consistency.h"
-#include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/scenario.h"
 
 namespace dbacov::sim {

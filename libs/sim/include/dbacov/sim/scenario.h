@@ -44,10 +44,10 @@
 #include <Eigen/Geometry>
 
 #include "dbacov/core/dba_factor.h"
+#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/sim/covisibility.h"
-#include "dbacov/sim/dba_solver.h"
 #include "dbacov/sim/image_flow.h"
 #include "dbacov/sim/pixel_models.h"
 #include "dbacov/sim/scene.h"

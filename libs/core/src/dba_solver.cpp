@@ -1,4 +1,4 @@
-#include "dbacov/sim/dba_solver.h"
+#include "dbacov/core/dba_solver.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "dbacov/sim/calibrated_solve.h"
+#include "dbacov/core/calibrated_solve.h"
 
 #include <algorithm>
 #include <cmath>

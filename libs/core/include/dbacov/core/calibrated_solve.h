@@ -29,10 +29,10 @@
 #include <optional>
 #include <vector>
 
+#include "dbacov/core/dba_solver.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/self_calibration.h"
 #include "dbacov/core/snapshot.h"
-#include "dbacov/sim/dba_solver.h"
 
 namespace dbacov {
 
