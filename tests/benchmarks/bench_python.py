@@ -1,6 +1,6 @@
-"""Call overhead of `import dbacov` (issue 17): Covariance(snapshot) + marginals() timed from
-Python against the same work timed inside C++ (dbacov._dbacov._engine_seconds), on the shared DROID
-snapshot; then the entry points of issue 17b: Covariance(self_calibrate=True) and
+"""Call overhead of `import dbacov`: Covariance(snapshot, stated_model=True) + marginals() timed
+from Python against the same work timed inside C++ (dbacov._dbacov._engine_seconds), on the shared
+DROID snapshot; then the default, self-calibrated Covariance(snapshot) and
 write_pose_rawlog (first call: loads the MRPT bridge; then per call). Run after the build:
 
     PYTHONPATH=build/python /usr/bin/python3 tests/benchmarks/bench_python.py ../shared/data/droid_window_0055.npz
