@@ -2,7 +2,7 @@
 # Screenshots of MRPT's own viewers on dbacov's outputs of the shared DROID snapshot, taken under
 # Xvfb (no display needed): SceneViewer3D on the .3Dscene, RawLogViewer on the snapshot rawlog
 # (through the plugin, -l) and on the pose rawlog. Writes docs/images/{sceneviewer3d,
-# rawlogviewer_snapshots,rawlogviewer_poses}.png (the README shows them).
+# rawlogviewer_snapshots,rawlogviewer_poses}.png (docs/getting-started.md shows them).
 #
 # Needs the built project (scripts/setup.sh) and, beyond setup.sh's packages (not needed by the
 # tests): apt-get install xvfb xdotool imagemagick.
