@@ -4,7 +4,14 @@
 #   2. an MRPT header included in libs/, apps/ or python/ outside libs/mrpt: the MRPT bridge is
 #      the only code that sees MRPT, so the other libraries and the Python module load without it
 #      (tests may include MRPT: they check the files we write with MRPT itself);
-#   3. OpenCV included in libs/core, libs/io, libs/sim or libs/app (only libs/mrpt and libs/flow use it).
+#   3. OpenCV included in libs/core, libs/io, libs/sim or libs/app (only libs/mrpt and libs/flow use it);
+#   4. source text (C++, Python, shell, CMake under libs/ apps/ python/ tests/ scripts/ share/ cmake/)
+#      that cites what a reader of the repository cannot open: an issue number ("issue 19",
+#      "Issue 15's", a "#12" in a comment), a STYLE.md or a "SPEC §" the repository does not hold,
+#      or a document outside it (a .tex file, ../shared/seed or ../shared/docs). A comment says
+#      what the code does and why; the history is in CHANGELOG.md, the design in docs/.
+#      (Not flagged: #include and other preprocessor lines, "#888888"-style colours in strings,
+#      "owner/repo#123" references to public projects' trackers, ../shared/data, the test data.)
 # Usage: scripts/check_source.sh [--fix]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -47,5 +54,31 @@ if [ -n "$opencv" ]; then
   echo "$opencv" | sed 's/^/  /' >&2
   status=1
 fi
-[ "$status" -eq 0 ] && echo "check_source: ${#files[@]} C++ files formatted; MRPT only in libs/mrpt" >&2
+scope=(libs apps python tests scripts share cmake CMakeLists.txt)
+kinds=('*.h' '*.hpp' '*.cpp' '*.cc' '*.py' '*.sh' '*.cmake' 'CMakeLists.txt')
+pathspecs=()
+for d in "${scope[@]}"; do
+  for k in "${kinds[@]}"; do
+    if [ "$d" = CMakeLists.txt ]; then pathspecs+=("$d"); break; fi
+    pathspecs+=("$d/**/$k" "$d/$k")
+  done
+done
+pathspecs+=(':!scripts/check_source.sh')  # this file names the patterns it looks for
+# Anywhere in a line (comments, docstrings, messages): issue numbers, missing or outside documents.
+cited=$(git grep --untracked -nIiE -e '(^|[^[:alnum:]_/])issues? #?[0-9]+' -e 'STYLE\.md' -e 'SPEC *§' \
+  -e '[[:alnum:]_]\.tex([^[:alnum:]_]|$)' -e '\.\./shared/(seed|docs)' -- "${pathspecs[@]}" || true)
+# In comments only: a bare "#12" (after // in C++, after the comment's # elsewhere), preceded by
+# a space or a bracket, so that "#include", "'#888888'" and "google/sanitizers#1353" pass.
+hash_c=$(git grep --untracked -nIE '//.*(^|[[:space:](])#[0-9]+([^[:alnum:]_]|$)' -- \
+  "${pathspecs[@]}" ':!*.py' ':!*.sh' ':!*.cmake' ':!*CMakeLists.txt' || true)
+hash_s=$(git grep --untracked -nIE '^[^"'"'"']*#.*[[:space:](]#[0-9]+([^[:alnum:]_]|$)' -- \
+  "${pathspecs[@]}" ':!*.h' ':!*.hpp' ':!*.cpp' ':!*.cc' || true)
+citations=$(printf '%s\n%s\n%s\n' "$cited" "$hash_c" "$hash_s" | sed '/^$/d' | sort -u)
+if [ -n "$citations" ]; then
+  echo "check_source: comments cite an issue number, a missing file or a document outside the" >&2
+  echo "repository; say what the code does and why instead (history: CHANGELOG.md):" >&2
+  echo "$citations" | sed 's/^/  /' >&2
+  status=1
+fi
+[ "$status" -eq 0 ] && echo "check_source: ${#files[@]} C++ files formatted; MRPT only in libs/mrpt; no citations" >&2
 exit "$status"

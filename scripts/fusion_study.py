@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Monte Carlo study of issue 15: is dba-posegraph's fused result consistent?
+"""Monte Carlo study of the fused sequence graph: is dba-posegraph's fused result consistent?
 
 For each scenario and run: simul-dba (24x32, weight scale 256, white noise matching the
 confidences), dba-covariance --graph with each --graph-edges choice, extra constraints drawn with

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Fuzzes the readers with libFuzzer (tests/fuzz, README "Reliability"): the .npz reader (npz), the
+# Fuzzes the readers with libFuzzer (tests/fuzz, docs/development/reliability.md): the .npz
+# reader (npz), the
 # snapshot rawlog reader (rawlog), the text pose-graph reader of dba-posegraph (graph) and the
 # ground-truth readers of dba-evaluate (ground_truth).
 # Usage: scripts/fuzz.sh [SECONDS] [TARGET...]

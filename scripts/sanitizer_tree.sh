@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Configures the sanitizer build tree that scripts/test.sh and scripts/fuzz.sh share (README
-# "Reliability"): clang, -O1, AddressSanitizer everywhere and UBSan on the project's libraries and
+# Configures the sanitizer build tree that scripts/test.sh and scripts/fuzz.sh share
+# (docs/development/reliability.md): clang, -O1, AddressSanitizer everywhere and UBSan on the project's libraries and
 # programs (DBACOV_SANITIZE, top-level CMakeLists.txt), the libFuzzer targets with coverage feedback
 # from the libraries (DBACOV_BUILD_FUZZERS), unity builds, no benchmarks.
 # Usage: scripts/sanitizer_tree.sh DIR [ON|OFF]   (the second argument: build the test suites too;

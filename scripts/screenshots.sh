@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Screenshots of MRPT's own viewers on dbacov's outputs of the shared DROID snapshot, taken under
 # Xvfb (no display needed): SceneViewer3D on the .3Dscene, RawLogViewer on the snapshot rawlog
-# (through the plugin, -l) and on the pose rawlog. Writes share/images/{sceneviewer3d,
-# rawlogviewer_snapshots,rawlogviewer_poses}.png (the README shows them).
+# (through the plugin, -l) and on the pose rawlog. Writes docs/images/{sceneviewer3d,
+# rawlogviewer_snapshots,rawlogviewer_poses}.png (docs/getting-started.md shows them).
 #
 # Needs the built project (scripts/setup.sh) and, beyond setup.sh's packages (not needed by the
 # tests): apt-get install xvfb xdotool imagemagick.
@@ -57,11 +57,11 @@ place() {
   xdotool windowmove "$1" 0 0 windowsize "$1" "$2" "$3"
   sleep 3
 }
-# Writes window $1 to share/images/$2.png (palette PNG: small in the repository).
+# Writes window $1 to docs/images/$2.png (palette PNG: small in the repository).
 shoot() {
   timeout 30 import -window "$1" "$work/shot.png"
-  convert "$work/shot.png" -colors 128 "PNG8:$root/share/images/$2.png"
-  echo "share/images/$2.png"
+  convert "$work/shot.png" -colors 128 "PNG8:$root/docs/images/$2.png"
+  echo "docs/images/$2.png"
 }
 
 (cd "$work" && exec SceneViewer3D scene.3Dscene) >/dev/null 2>&1 &

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The depths' second-order term's expansion on a scalar least-squares toy (README, "What the
+"""The depths' second-order term's expansion on a scalar least-squares toy (docs/studies/depth-noise.md, "What the
 expansion still leaves out").
 
 One pose coordinate x, one depth d, F nonlinear residuals r_f(x, d) with weights lam_f. At the

@@ -25,6 +25,8 @@ PACKAGES=(
   zlib1g-dev clang libclang-rt-14-dev
   # Source checks (scripts/check_source.sh): the tree is formatted with Debian 12's clang-format 14.
   clang-format
+  # Documentation (scripts/docs.sh): the site (mkdocs.yml, docs/) and the C++ API reference.
+  mkdocs mkdocs-material doxygen
 )
 
 missing=()

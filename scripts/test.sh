@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Sets everything up (packages + Release build) and runs the whole test suite (ctest over
 # GoogleTest) after the source checks (scripts/check_source.sh: clang-format, MRPT only in
-# libs/mrpt), then the reliability passes (README "Reliability"):
+# libs/mrpt, no citations) and the documentation build (scripts/docs.sh: mkdocs --strict and
+# Doxygen, no warning), then the reliability passes (docs/development/reliability.md):
 #   1. the suite in build/ (Release);
 #   2. the suite again under AddressSanitizer (everywhere) + UndefinedBehaviorSanitizer (libs/ and
 #      apps/) in build-asan/ (clang, -O1, assertions on, benchmarks off; scripts/sanitizer_tree.sh;
@@ -22,7 +23,9 @@ t0=$(clock)
 scripts/setup.sh
 # Formatting and layout rules first: a violation fails the run before any test (check_source.sh).
 scripts/check_source.sh
-report "setup + Release build" "$t0"
+# The documentation: the site and the C++ reference build without a warning (scripts/docs.sh).
+scripts/docs.sh
+report "setup + Release build + docs" "$t0"
 if [[ " $passes " == *" release "* ]]; then
   t=$(clock)
   ctest --test-dir "${DBACOV_BUILD_DIR:-build}" --output-on-failure -j"$(nproc)" "$@"
@@ -35,8 +38,8 @@ if [[ " $passes " == *" asan "* ]]; then
   cmake --build build-asan -j"$(nproc)"
   report "sanitizer build" "$t"
   t=$(clock)
-  # No runtime suppressions are needed (README "Reliability"); the one compile-time exemption,
-  # UBSan's alignment check on MRPT's OpenGL objects, is documented in CMakeLists.txt.
+  # No runtime suppressions are needed (docs/development/reliability.md); the one compile-time
+  # exemption, UBSan's alignment check on MRPT's OpenGL objects, is documented in CMakeLists.txt.
   export ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   # The Monte Carlo tests repeat, 20 to 100 times, solves whose every code path a single-run test
   # also takes under the sanitizers (SimulApp, DroidModes, SelfCalibration, ImageFlow.OpenCvFlow...,

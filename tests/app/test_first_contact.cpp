@@ -1,4 +1,4 @@
-// What a new user meets first (issue 18): help texts without CLI11's range noise that say what -i
+// What a new user meets first: help texts without CLI11's range noise that say what -i
 // takes and which outputs need keyframe times, a first-line fix when times are missing, the real
 // data .graph that MRPT's text loader cannot hold refused with the command to run instead, and the
 // simulator's room limit explained.

@@ -1,4 +1,4 @@
-// Scale of the marginal solver (issue 3): whole-trajectory DBA graphs from the simulator, loop
+// Scale of the marginal solver: whole-trajectory DBA graphs from the simulator, loop
 // trajectory (band of temporal neighbours plus revisits), 48×64 grid, 100 / 1 000 / 3 000
 // keyframes. Arguments: (keyframes, keyframes per lap). 200 per lap is the DROID-like case (a
 // revisit every 200 keyframes); 60 per lap is a stress case where every keyframe sees the same

@@ -1,4 +1,4 @@
-// dbacov against what a user would pick instead (issue 8), on the same problems in one run:
+// dbacov against what a user would pick instead, on the same problems in one run:
 //   Dbacov          linearize + Schur + CHOLMOD + selected inverse, every keyframe marginal
 //   DenseReduced    the same reduced system inverted densely with Eigen
 //   CeresFull       ceres::Covariance (SPARSE_QR) on the full problem: pose and inverse-depth

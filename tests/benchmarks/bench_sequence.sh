@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A long simulated sequence end to end through dba-covariance (issue 8): rawlog in, rawlog + CSV
+# A long simulated sequence end to end through dba-covariance: rawlog in, rawlog + CSV
 # out. Prints wall time, snapshots per second and peak resident memory for the last 100 and for
 # all 500 snapshots, on 1 and 2 threads. Like DROID-SLAM's dumps, snapshot s holds every keyframe
 # so far in 'poses'/'disps' (its graph covers the last 25), so snapshots grow along the sequence:

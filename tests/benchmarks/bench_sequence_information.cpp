@@ -1,4 +1,4 @@
-// Issue 15: cost and loss of the whole-sequence information and its conservative export.
+// Cost and loss of the whole-sequence information and its conservative export.
 //   bench_sequence_information [SNAPSHOTS]   (default 500; the smoke test runs 3)
 // Prints, for the shared DROID snapshot and for a simulated sliding-window sequence (48×64,
 // window 8, loop, state = truth: no per-snapshot solve), the time of each step and the KL

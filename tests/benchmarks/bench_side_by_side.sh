@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# dba-covariance against the Ceres peer (issue 19), as whole processes on the same input in one
+# dba-covariance against the Ceres peer, as whole processes on the same input in one
 # run: one copy of the shared DROID snapshot, then COPIES copies (one process each time). Both on
 # one thread (`taskset -c 1` when the machine has a second core), CSV out. Prints for each tool the
 # median wall time and CPU time (user+sys) over REPEATS runs, the ratio peer / dbacov, and the

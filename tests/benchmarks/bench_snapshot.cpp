@@ -1,4 +1,4 @@
-// Time per snapshot (issue 2): the real DROID snapshot ../shared/data/droid_window_0055.npz
+// Time per snapshot: the real DROID snapshot ../shared/data/droid_window_0055.npz
 // (11 keyframes, 58 edges, 49×61) through the whole engine, one core.
 //   Load          .npz → validated Snapshot (libzip inflate + NPY parse + checks)
 //   LoadStored    the same snapshot saved with stored (not deflated) members, as np.savez or

@@ -1,4 +1,4 @@
-// Issue 19's optional single-precision pixel kernel, decided by its precision before its speed:
+// The optional single-precision pixel kernel, decided by its precision before its speed:
 // how far do the keyframe covariances move when every pixel factor is linearized and reduced in
 // float, and only the sums over pixels are kept in double?
 //
@@ -13,7 +13,7 @@
 //           b bᵀ / h all in float, accumulated over pixels in double (what "a float kernel with
 //           double accumulation of the normal equations" computes per pixel).
 // It prints, per snapshot, the largest change of a keyframe marginal relative to that marginal's
-// largest diagonal entry, and the largest relative change of a marginal σ. Issue 19 accepts the
+// largest diagonal entry, and the largest relative change of a marginal σ. The project accepts the
 // float kernel only within 1e-6 relative of the double path.
 //
 //   float_kernel_precision [SNAPSHOT.npz ...]   (default: the shared snapshot and a simulated

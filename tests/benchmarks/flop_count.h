@@ -1,4 +1,4 @@
-// Floating-point operations that linearizeDba's kernel performs on a snapshot (issue 8), counted
+// Floating-point operations that linearizeDba's kernel performs on a snapshot, counted
 // from the kernel's arithmetic (libs/core/src/dba_kernel.cpp). The kernel works in the edges'
 // coordinates: the source's Jacobian is J_i = −J_j Ad(T_ji), applied once per edge and source
 // outside the kernel (negligible here). Per lane = pixel of a source keyframe against one edge:

@@ -1,4 +1,4 @@
-// The Ceres peer as a whole process (issue 19), for tests/benchmarks/bench_side_by_side.sh: what a
+// The Ceres peer as a whole process, for tests/benchmarks/bench_side_by_side.sh: what a
 // user would run instead of dba-covariance. For every snapshot (.npz files, or a directory of
 // them in name order): load it, build the full problem of ceres_problems.h (pose and inverse-depth
 // blocks, one residual block per pixel factor, preset droid), ceres::Covariance (SPARSE_QR, one

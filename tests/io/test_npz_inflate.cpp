@@ -1,4 +1,4 @@
-// Whole-member inflation (libdeflate, issue 19) against NumPy's own bytes, damaged deflate streams
+// Whole-member inflation (libdeflate) against NumPy's own bytes, damaged deflate streams
 // with libzip's messages, the first failure in key order when members inflate in parallel, and
 // the block-wise non-finite scan of Snapshot::validate on the real DROID snapshot.
 #include <cmath>

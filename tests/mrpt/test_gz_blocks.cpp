@@ -1,4 +1,4 @@
-// The gzip members of GzOutputStream (issue 19: each inflated whole with libdeflate on reading):
+// The gzip members of GzOutputStream (each inflated whole with libdeflate on reading):
 // members that carry their size, read back by zlib and by GzInputStream; another writer's member
 // after ours read through zlib; damage and a cut between two members are read errors, not ends;
 // members that deflate shrinks by less than half are stored blocks.

@@ -45,7 +45,7 @@ TEST(DiskFull, AnOutputThatFailsMidRunIsGivenUpAndTheOthersGoOn) {
                                                     ": write failed: File too large \\(at entry "
                                                     "[0-9]+\\)")))
       << lines[1];
-  // The graph's account (sequence information, issue 15).
+  // The graph's account (sequence information).
   EXPECT_EQ(lines[2].rfind("dba-covariance: graph: ", 0), 0u) << lines[2];
   // Each failing output costs exactly one snapshot; every other snapshot is processed.
   EXPECT_TRUE(std::regex_match(

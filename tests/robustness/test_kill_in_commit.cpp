@@ -1,4 +1,4 @@
-// A kill inside the commit (issue 16): the outputs of a run change together. Every output is
+// A kill inside the commit: the outputs of a run change together. Every output is
 // prepared first (written, fsync'ed, still unnamed); then one tight loop renames them all. The
 // real dba-covariance is killed (SIGKILL, by its fault-injection hook DBACOV_TEST_KILL_IN_COMMIT=k)
 // after k renames: before the first, every previous file is intact and nothing else exists; after

@@ -1,4 +1,4 @@
-// Data loss through paths (issue 16): an output that is an input (same file by device + inode,
+// Data loss through paths: an output that is an input (same file by device + inode,
 // whatever the name: the path itself, a symlink, a hard link, `dir/../file`, a file of an input
 // directory), two outputs on one file (also the derived names of --graph PREFIX), and outputs
 // that are not regular files (a FIFO and a character device are written in place, a symlink is

@@ -1,4 +1,4 @@
-// Inputs that used to be read silently wrong or crash (issue 16), each refused naming the file,
+// Inputs that used to be read silently wrong or crash, each refused naming the file,
 // line, node, edge or option, with no output written: pose graphs (node ids beyond 32 bits, text
 // edges whose information MRPT would replace by the identity, non-symmetric information in a
 // .graphbin, a single node, bad node times), .npz archives with two members of one name, and

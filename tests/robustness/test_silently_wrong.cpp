@@ -1,4 +1,4 @@
-// Inputs that used to give plausible but wrong outputs with exit 0 (issue 16): near-singular
+// Inputs that used to give plausible but wrong outputs with exit 0: near-singular
 // systems reported as gauge-fixed keyframes, keyframes merged through duplicate tstamps, times
 // that MRPT cannot represent. Each is refused with a message naming the file, key, keyframe or
 // option, and the other snapshots' outputs are complete.

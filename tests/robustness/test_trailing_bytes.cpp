@@ -1,4 +1,4 @@
-// Bytes after the last object of a rawlog (issue 16): CRawlog stops at them silently and zlib's
+// Bytes after the last object of a rawlog: CRawlog stops at them silently and zlib's
 // gzread ignores whatever follows a gzip member, so an appended or damaged tail used to pass for
 // a complete file. Now: junk after the last object (plain rawlog, or inside the compressed data)
 // and non-gzip bytes after the last gzip member are refused naming the file, the byte offset, how

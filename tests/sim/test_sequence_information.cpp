@@ -1,4 +1,4 @@
-// Issue 15: information counted once. Monte Carlo on the sliding-window line: the old per-snapshot
+// Information counted once (--graph). Monte Carlo on the sliding-window line: the old per-snapshot
 // marginal graph is over-confident; the whole-sequence information and its conservative export
 // are not.
 #include <gtest/gtest.h>
@@ -149,9 +149,9 @@ TEST(SequenceInformation, ExportIsBelowTheTrueInformationWithTheReportedKl) {
   EXPECT_GT(E(T::Covisibility, R::BlockCoordinate), 0.8);
 }
 
-// Issue 15's finding, reduced: the old graph (inverse per-snapshot marginal relative covariances)
-// fails the χ² region above; the sequence graph's optimized poses are inside it and each node's
-// NEES is at most that of the dense sequence covariance (the export is conservative).
+// The per-snapshot graph's failure, reduced: the old graph (inverse per-snapshot marginal relative
+// covariances) fails the χ² region above; the sequence graph's optimized poses are inside it and
+// each node's NEES is at most that of the dense sequence covariance (the export is conservative).
 TEST(SequenceInformation, PerSnapshotMarginalGraphIsOverConfidentSequenceGraphIsNot) {
   const int runs = 5;
   const sim::Scenario sc(lineConfig(14));
@@ -200,7 +200,7 @@ TEST(SequenceInformation, PerSnapshotMarginalGraphIsOverConfidentSequenceGraphIs
   EXPECT_TRUE(region.contains(seq_anees)) << seq_anees;
 }
 
-// The DROID-like regime (issue 15's premise): windows share their flows (edge persistence) and
+// The DROID-like regime (the premise of --graph): windows share their flows (edge persistence) and
 // each snapshot is held where the previous one left it, not at the truth. The old graph then
 // counts every flow once per window and is far over-confident; the sequence graph is inside the
 // region and its position error is no worse (information counted once is all the information).

@@ -1,4 +1,4 @@
-// Private to dbacov_app: keep freed snapshot buffers for the next snapshot (issue 19).
+// Private to dbacov_app: keep freed snapshot buffers for the next snapshot.
 #pragma once
 
 namespace dbacov::app {
@@ -12,7 +12,7 @@ namespace dbacov::app {
 /// pages (madvise), so that a first snapshot on the main thread faults in 2 MiB pages instead of
 /// 4 KiB ones. That matters where faults are expensive (≈ 20 µs each in a paravirtualized guest:
 /// the shared snapshot's whole run 58 → 42 ms of CPU, with --self-calibrate 211 → 135 ms;
-/// BENCHMARKS.md). No-op without glibc.
+/// docs/development/performance.md). No-op without glibc.
 void keepFreedMemoryForReuse();
 
 }  // namespace dbacov::app

@@ -1,7 +1,7 @@
 // Private to dbacov_app: values of dba-evaluate's inputs that would be scored silently wrong
-// (issue 16): ground truth with two different poses at one time (the first used to win),
-// covariances with negative variances (scored with fewer DoF and called "inside") or entries so
-// large that the NEES collapses (1e300: DoF 1, ANEES 0).
+// (each refused naming file and line): ground truth with two different poses at one time (the first
+// used to win), covariances with negative variances (scored with fewer DoF and called "inside") or
+// entries so large that the NEES collapses (1e300: DoF 1, ANEES 0).
 #pragma once
 
 #include <string>

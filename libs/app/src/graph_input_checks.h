@@ -1,4 +1,4 @@
-// Private to dbacov_app: checks of dba-posegraph's inputs that its loaders do not make (issue 16).
+// Private to dbacov_app: checks of dba-posegraph's inputs that its loaders do not make.
 #pragma once
 
 #include <optional>

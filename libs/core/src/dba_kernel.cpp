@@ -223,7 +223,7 @@ __attribute__((always_inline)) inline void chunkBody(const Camera& cam, const Fi
 // (selectedIsa). (Not GCC's target_clones: clang 14 ignores it on a function declared earlier, and
 // where it clones, it defines no symbol that other files can call.) An AVX-512 clone was measured
 // and left out: on a Sapphire-Rapids-class Xeon it was 20 % slower with 512-bit vectors and no
-// faster with 256-bit ones (BENCHMARKS.md, issue 19).
+// faster with 256-bit ones (docs/development/performance.md).
 __attribute__((target("avx2,fma"))) void chunkAvx2Fma(const Camera& cam, const Filter& flt, int p0,
                                                       int n, const double* xn, const double* yn,
                                                       const double* d, const Edge* edges,

@@ -1,4 +1,4 @@
-// Whole-member inflation with libdeflate (issue 19): about twice zlib's speed on NumPy's members,
+// Whole-member inflation with libdeflate: about twice zlib's speed on NumPy's members,
 // because libdeflate decodes the whole buffer at once instead of streaming through a window.
 #include "member_inflate.h"
 

@@ -1,6 +1,6 @@
 // checkGraphText: the lines of an MRPT text graph that MRPT's loader would misread silently
-// (issue 16). MRPT 2.5 turns an edge whose information is missing, too short, NaN/inf or not a
-// number into an identity information matrix with a warning, and node ids beyond 32 bits alias
+// (refused instead). MRPT 2.5 turns an edge whose information is missing, too short, NaN/inf or not
+// a number into an identity information matrix with a warning, and node ids beyond 32 bits alias
 // other nodes in dbacov's int ids: refuse them, naming file, line and edge.
 #include <cerrno>
 #include <climits>

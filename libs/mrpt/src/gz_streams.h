@@ -24,7 +24,7 @@
 // or compressed data that ends before its end marker: a truncated file), as CFileGZInputStream
 // does for damaged data. A gzip file may hold several members (concatenation is legal), but bytes
 // after the last member that do not start another one are a read error too, explained by
-// failure(): zlib's gzread ignores such trailing garbage silently, so it is not used (issue 16).
+// failure(): zlib's gzread ignores such trailing garbage silently, so it is not used.
 #pragma once
 
 #include <cstddef>

@@ -121,7 +121,7 @@ void ScenarioConfig::validate() const {
   // An unknown flow estimator is a configuration error, found before anything is simulated.
   if (!flow.isModel()) makeFlowEstimator(flow.source);
   // A correlation longer than the grid makes each image's noise one offset, and its kernel (8ℓ/√2
-  // wide) would need memory and time beyond the grid's: bound it by the grid (issue 16).
+  // wide) would need memory and time beyond the grid's: bound it by the grid.
   require(noise.type != NoiseModel::Type::Correlated ||
               noise.correlation_length_px <= std::max(camera.H, camera.W),
           "noise: correlation length " + shortNumber(noise.correlation_length_px) +

@@ -69,7 +69,7 @@ class RelativeCsvSink final : public CsvSink {
   void add(const Snapshot& snapshot, const DbaCovariance& cov) override;
 };
 
-/// `--depth-sigma DIR`: DIR/<snapshot>_<keyframe>.npy per source keyframe, float32 H×W standard
+/// `--depth-sigma DIR`: `DIR/<snapshot>_<keyframe>.npy` per source keyframe, float32 H×W standard
 /// deviation of the inverse depth, NaN where a pixel carries no information. The maps are queued
 /// in an unnamed spool file (io::DeferredFiles) and written, each atomically, by commit(): a run
 /// that stops early (--fail-fast, a kill) writes none of them. DIR is created by commit().

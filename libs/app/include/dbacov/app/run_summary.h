@@ -11,7 +11,7 @@
 
 namespace dbacov::app {
 
-/// Why a snapshot failed, in the three kinds of STYLE.md plus output and internal errors.
+/// Why a snapshot failed, in the three kinds of errors.h plus output and internal errors.
 enum class FailureKind {
   InvalidInput,  ///< unreadable, damaged or invalid snapshot (dbacov::InputError while reading)
   Numerical,     ///< a valid snapshot without covariances (dbacov::NumericalError)

@@ -1,5 +1,5 @@
 // Information counted once over a whole sequence of DBA snapshots, and its export as a pose graph
-// that can be fused as it is (issue 15).
+// that can be fused as it is.
 //
 // Why: the pairs of one snapshot are computed from the same pixels, and overlapping windows share
 // flows, so edges that each carry the inverse of a snapshot's *marginal* relative covariance count
@@ -12,7 +12,7 @@
 //    pixel factor of the sequence appears exactly once.
 // 2. sequenceInformation() re-solves that problem (dba_solver.h, the two-pose gauge held where it
 //    is) so that the relative poses are its optimum, linearizes it and eliminates the depths: the
-//    exact depth-reduced pose information Λ of the sequence (SPEC §4, docs/conventions.md §4),
+//    exact depth-reduced pose information Λ of the sequence (docs/conventions.md §4),
 //    expressed over every node but the root (the first gauge keyframe, held fixed as dba-posegraph
 //    holds its lowest node). The second gauge keyframe carries the gauge's prior; a hard gauge
 //    component is a stiff prior (kStiffGauge × the node's largest information entry), so that the

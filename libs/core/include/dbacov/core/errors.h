@@ -1,5 +1,5 @@
-// The three kinds of failure (STYLE.md): misuse (std::invalid_argument / std::logic_error), bad
-// input or I/O (InputError), numerical outcomes of a valid input (NumericalError).
+// The three kinds of failure (CONTRIBUTING.md): misuse (std::invalid_argument / std::logic_error),
+// bad input or I/O (InputError), numerical outcomes of a valid input (NumericalError).
 #pragma once
 
 #include <stdexcept>

@@ -1,4 +1,4 @@
-// Keyframe identities and times that every output can represent (issue 16).
+// Keyframe identities and times that every output can represent.
 //
 //   - A keyframe is identified by its `tstamp` (DROID's image index): --emit final, the plots and
 //     the scene merge keyframes of different snapshots by it, so within one snapshot the values

@@ -1,4 +1,4 @@
-// Pose graphs of DROID-SLAM keyframes whose constraints carry the DBA information (issue 5).
+// Pose graphs of DROID-SLAM keyframes whose constraints carry the DBA information.
 //
 // Nodes are keyframes (id = keyframe index into the snapshots' `poses`), with camera-to-world
 // poses. An edge (from < to) is a relative-pose constraint Z ≈ T_from⁻¹ T_to with the information

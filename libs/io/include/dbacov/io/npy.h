@@ -41,7 +41,7 @@ inline constexpr std::size_t kMaxNpyDims = 64;
 /// std::allocator, except that elements a vector adds without a value (resize(n), vector(n)) are
 /// default-initialized: for bytes, left as they are instead of zeroed. An array's bytes are written
 /// once, by a file read or an inflater, so zeroing them first would cost another pass over
-/// megabytes per snapshot (issue 19: 4.6 % of a 60-snapshot run). (libstdc++ copies through such
+/// megabytes per snapshot (4.6 % of a 60-snapshot run's time). (libstdc++ copies through such
 /// an allocator element by element; optimized builds turn those loops back into memcpy.)
 template <typename T>
 struct DefaultInitAllocator : std::allocator<T> {

@@ -10,7 +10,7 @@ namespace dbacov::mrpt_bridge {
 /// The result is printable() (MRPT quotes class names read from damaged files verbatim).
 std::string conciseMrptMessage(const std::string& what);
 
-/// `text` with every byte outside printable ASCII written as \xNN, for text that comes from a
+/// `text` with every byte outside printable ASCII written as `\xNN`, for text that comes from a
 /// file (e.g. a class name in a damaged rawlog) and goes into an error message.
 std::string printable(const std::string& text);
 

@@ -1,4 +1,4 @@
-// The image-based flow test bed (issue 14): targets that no noise formula wrote. The room is given
+// The image-based flow test bed: targets that no noise formula wrote. The room is given
 // a procedural texture, each keyframe is rendered at `render_scale` times the grid resolution with
 // sensor noise, and a dense optical flow estimator (OpenCV's DIS or Farneback, registered by the
 // programs that link libs/flow) computes the flow between the two images of every edge; the

@@ -49,7 +49,7 @@ struct NoiseModel {
   /// errors of all its edges (independent measurements per snapshot). Edge: an edge's
   /// confidences and errors are drawn once per run and are the same in every snapshot that holds
   /// the edge, as DROID's network predicts the same flow again for the same pair of images (its
-  /// windows then share their measurements: what issue 15's "counted once" is about).
+  /// windows then share their measurements: what --graph's "counted once" is about).
   enum class Persistence { Snapshot, Edge };
   Persistence persistence = Persistence::Snapshot;
   double correlation_length_px = 3.0;  ///< ℓ (Correlated)
