@@ -3,7 +3,9 @@
 # snapshots and computes their pose covariances. Outputs land in build/demo/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh
+# Only what the demo runs: the three programs and the MRPT plugin that writes the rawlogs, the
+# scene and the pictures (not the test suite).
+scripts/setup.sh simul-dba droid2rawlog dba-covariance dbacov_mrpt
 out=build/demo
 rm -rf "$out"
 build/bin/simul-dba -o "$out" --snapshots 5 --seed 1

@@ -15,7 +15,9 @@ if [ -f "$cache" ] && ! { grep -q '^DBACOV_SANITIZE:BOOL=ON' "$cache" &&
   grep -q "^DBACOV_BUILD_TESTS:BOOL=$tests" "$cache"; }; then
   rm -rf "$dir"
 fi
+source scripts/ccache_env.sh
 # -Wno-pass-failed: clang at -O1 declines the pixel kernel's vectorization hints (Release obeys them).
 CXX=clang++ cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
   -DCMAKE_CXX_FLAGS="-Wno-pass-failed" -DDBACOV_SANITIZE=ON -DDBACOV_BUILD_FUZZERS=ON \
-  -DDBACOV_BUILD_TESTS="$tests" -DDBACOV_BUILD_BENCHMARKS=OFF -DDBACOV_UNITY_BUILD=ON > /dev/null
+  -DDBACOV_BUILD_TESTS="$tests" -DDBACOV_BUILD_BENCHMARKS=OFF -DDBACOV_UNITY_BUILD=ON \
+  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache > /dev/null

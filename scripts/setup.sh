@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Installs every Debian package that dbacov's build, tests, demo and benchmarks need, then configures
 # and builds the project (Release) in ./build (or $DBACOV_BUILD_DIR). Idempotent: packages already
-# present are not reinstalled and the build is incremental. Usage: scripts/setup.sh [--no-build]
+# present are not reinstalled and the build is incremental; compilations go through ccache
+# (scripts/ccache_env.sh), so a rebuild of unchanged sources, in this checkout or a fresh clone on
+# the same machine, is fast.
+# Usage: scripts/setup.sh [--no-build | TARGET...]   (targets: build only those, e.g. the demo's)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PACKAGES=(
-  build-essential cmake ninja-build pkg-config git
+  build-essential cmake ninja-build pkg-config git ccache time
   libeigen3-dev libsuitesparse-dev libzip-dev libdeflate-dev
   libmrpt-dev mrpt-apps
   libopencv-dev
@@ -43,7 +46,11 @@ fi
 
 if [ "${1:-}" != "--no-build" ]; then
   build=${DBACOV_BUILD_DIR:-build}
+  source scripts/ccache_env.sh
   # Unity builds: a cold build about a third faster (top-level CMakeLists.txt), same outputs.
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDBACOV_UNITY_BUILD=ON
-  cmake --build "$build" -j"$(nproc)"
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDBACOV_UNITY_BUILD=ON \
+    -DCMAKE_CXX_COMPILER_LAUNCHER=ccache > /dev/null
+  targets=()
+  for t in "$@"; do targets+=(--target "$t"); done
+  cmake --build "$build" -j"$(nproc)" "${targets[@]}"
 fi

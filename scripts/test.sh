@@ -10,13 +10,30 @@
 #   3. a bounded fuzz run of the .npz, rawlog, text pose-graph and ground-truth readers
 #      (scripts/fuzz.sh, built in build-asan/, 60 s of wall time in all: one target per core, in
 #      waves).
+# --quick (the inner loop): the Release build and its suite without the statistical Monte Carlo
+# tests (below); no documentation, sanitizer or fuzz pass. CI runs everything.
 # Extra arguments go to both ctest runs (e.g. -R Covariance). DBACOV_TEST_PASSES selects passes
 # (default "release asan fuzz"); DBACOV_FUZZ_SECONDS sets the fuzz time (default 60);
 # DBACOV_BUILD_DIR the Release build directory (default build).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 passes=${DBACOV_TEST_PASSES:-release asan fuzz}
+quick=0
+if [ "${1:-}" = "--quick" ]; then
+  quick=1
+  passes=release
+  shift
+fi
 clock() { date +%s; }
+# The Monte Carlo tests repeat, 20 to 100 times, solves whose every code path a single-run test
+# also takes (SimulApp, DroidModes, SelfCalibration, ImageFlow.OpenCvFlow...,
+# SequenceInformation.Export..., CalibratedSolve.Grossly...); they prove statistics, which the
+# Release pass checks. Under the sanitizers they would be half of the suite's time and find
+# nothing the single runs do not; --quick leaves them out too.
+statistical='^(MonteCarlo|SelfCalibrationMonteCarlo)\.|^ImageFlow\.RealFlowIsOverConfidentUntilSelfCalibrated$'
+statistical+='|^SequenceInformation\.PerSnapshotMarginalGraphIsOverConfidentSequenceGraphIsNot$'
+statistical+='|^SequenceInformation\.SharedFlowsChainedGaugeSequenceGraphConsistentAndNoLessAccurate$'
+statistical+='|^CalibratedSolve\.OverWeighted'  # its single runs: CalibratedSolve's other tests
 report() { echo "test.sh: $1 took $(($(clock) - $2)) s" >&2; }
 
 t0=$(clock)
@@ -24,11 +41,13 @@ scripts/setup.sh
 # Formatting and layout rules first: a violation fails the run before any test (check_source.sh).
 scripts/check_source.sh
 # The documentation: the site and the C++ reference build without a warning (scripts/docs.sh).
-scripts/docs.sh
+if ((!quick)); then scripts/docs.sh; fi
 report "setup + Release build + docs" "$t0"
 if [[ " $passes " == *" release "* ]]; then
   t=$(clock)
-  ctest --test-dir "${DBACOV_BUILD_DIR:-build}" --output-on-failure -j"$(nproc)" "$@"
+  exclude=()
+  if ((quick)); then exclude=(-E "$statistical"); fi
+  ctest --test-dir "${DBACOV_BUILD_DIR:-build}" --output-on-failure -j"$(nproc)" "${exclude[@]}" "$@"
   report "Release tests" "$t"
 fi
 
@@ -41,19 +60,6 @@ if [[ " $passes " == *" asan "* ]]; then
   # No runtime suppressions are needed (docs/development/reliability.md); the one compile-time
   # exemption, UBSan's alignment check on MRPT's OpenGL objects, is documented in CMakeLists.txt.
   export ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-  # The Monte Carlo tests repeat, 20 to 100 times, solves whose every code path a single-run test
-  # also takes under the sanitizers (SimulApp, DroidModes, SelfCalibration, ImageFlow.OpenCvFlow...,
-  # SequenceInformation.Export..., CalibratedSolve.Grossly...); they prove statistics, which the
-  # Release pass checks. Here they would be half of the suite's time and find nothing the single
-  # runs do not.
-  statistical='^(MonteCarlo|SelfCalibrationMonteCarlo)\.|^ImageFlow\.RealFlowIsOverConfidentUntilSelfCalibrated$'
-  statistical+='|^SequenceInformation\.PerSnapshotMarginalGraphIsOverConfidentSequenceGraphIsNot$'
-  statistical+='|^SequenceInformation\.SharedFlowsChainedGaugeSequenceGraphConsistentAndNoLessAccurate$'
-  statistical+='|^CalibratedSolve\.OverWeighted'  # its single runs: CalibratedSolve's other tests
-  # The bootstrap's statistics (24 re-solved replicates against the scale's sampling spread); every
-  # branch of the redraw runs under the sanitizers in ...RedrawnEachWayInAFewReplicates and
-  # ...ReproducibleWhateverTheThreadsAndSeeded.
-  statistical+='|^BootstrapSelfCalibration\.(ScaleIsOne|ScaleGrows|WildResampling|StereoAndSensorDepthsAreRedrawnScaleIsOne)'
   log=build-asan/ctest.log
   status=0
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$statistical" "$@" 2>&1 |

@@ -21,14 +21,17 @@ namespace {
 
 const std::string kRegressions = std::string(DBACOV_SOURCE_DIR) + "/tests/fuzz/regressions/";
 
-/// The files of tests/fuzz/regressions/<target>/, sorted.
+/// The files of tests/fuzz/regressions/<target>/, sorted; fails the test when there are none (a
+/// replay of an empty or missing corpus would pass whatever the target does).
 std::vector<std::string> regressions(const std::string& target) {
   std::vector<std::string> files;
-  std::error_code ec;  // a target without regressions has no directory
+  std::error_code ec;
   for (const auto& e : std::filesystem::directory_iterator(kRegressions + target, ec))
     if (e.is_regular_file() && e.path().filename().string()[0] != '.')
       files.push_back(e.path().string());
   std::sort(files.begin(), files.end());
+  EXPECT_FALSE(files.empty()) << kRegressions + target << ": no regression inputs"
+                              << (ec ? " (" + ec.message() + ")" : std::string());
   return files;
 }
 

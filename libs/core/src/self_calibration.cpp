@@ -1199,7 +1199,7 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
   if (c.method == SelfCalibrationMethod::Bootstrap)
     throw std::invalid_argument(
         "the bootstrap self-calibration re-solves the DBA: run it with runSelfCalibration "
-        "(dbacov/sim/bootstrap.h)");
+        "(dbacov/study/bootstrap.h)");
   s.validate();
   const int E = s.numEdges();
   SelfCalibration out;

@@ -1,9 +1,10 @@
 #include "dbacov/sim/monte_carlo.h"
 
+#include <optional>
+
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/errors.h"
 #include "dbacov/core/pipeline.h"
-#include "dbacov/sim/bootstrap.h"
 
 namespace dbacov::sim {
 
@@ -12,29 +13,38 @@ void EvaluationSamples::append(const EvaluationSamples& o) {
   relative.insert(relative.end(), o.relative.begin(), o.relative.end());
 }
 
+CovarianceFunction pipelineCovariance(const SelfCalibrationOptions* self_calibration) {
+  std::optional<SelfCalibrationOptions> c;
+  if (self_calibration) c = *self_calibration;
+  return [c](const Snapshot& s, const DbaOptions& options) {
+    if (c && c->method != SelfCalibrationMethod::Nuisance)
+      return selfCalibratedCovariance(s, options, {}, selfCalibrate(s, options, *c));
+    PipelineOptions p;
+    p.engine = options;
+    p.stated_model = !c;
+    if (c) p.calibration = *c;
+    return std::move(*computeCovariance(s, p).cov);
+  };
+}
+
 EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& sim, const DbaOptions& options,
                                    std::int64_t run, PairSelection pairs,
                                    const SelfCalibrationOptions* self_calibration) {
+  return evaluateSnapshot(sim, options, run, pairs, pipelineCovariance(self_calibration));
+}
+
+EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& sim, const DbaOptions& options,
+                                   std::int64_t run, PairSelection pairs,
+                                   const CovarianceFunction& covariance) {
   const Snapshot& s = sim.snapshot;
   // The covariances' numerical errors do not name their snapshot (the callers do): name the run's.
-  // The product's pipeline (computeCovariance) for its own method; a study method (bootstrap,
-  // vce, ...) through runSelfCalibration.
-  const auto covariance = [&]() {
+  const DbaCovariance cov = [&]() {
     try {
-      if (!self_calibration || self_calibration->method == SelfCalibrationMethod::Nuisance) {
-        PipelineOptions p;
-        p.engine = options;
-        p.stated_model = !self_calibration;
-        if (self_calibration) p.calibration = *self_calibration;
-        return std::move(*computeCovariance(s, p).cov);
-      }
-      return selfCalibratedCovariance(s, options, {},
-                                      runSelfCalibration(s, options, *self_calibration));
+      return covariance(s, options);
     } catch (const NumericalError& e) {
       throw NumericalError(s.name() + ": " + e.what(), e.keyframes());
     }
-  };
-  const DbaCovariance cov = covariance();
+  }();
   const std::string prefix = "s" + std::to_string(s.label()) + "/";
   EvaluationSamples out;
   for (int k : cov.keyframes()) {
@@ -63,6 +73,14 @@ MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs
                                const DbaOptions& options, PairSelection pairs,
                                const std::function<void(int, int)>& progress,
                                const SelfCalibrationOptions* self_calibration) {
+  return runMonteCarlo(scenario, first_run, runs, options, pairs, progress,
+                       pipelineCovariance(self_calibration));
+}
+
+MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs,
+                               const DbaOptions& options, PairSelection pairs,
+                               const std::function<void(int, int)>& progress,
+                               const CovarianceFunction& covariance) {
   if (scenario.config().gauge_hold == GaugeHold::Estimate)
     throw std::invalid_argument(kMonteCarloNeedsTruthGauge);
   MonteCarloResult r;
@@ -74,7 +92,7 @@ MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs
       r.solver.push_back(sim.solver);
       if (scenario.config().solve && !sim.solver.converged()) ++r.not_converged;
       r.samples.append(evaluateSnapshot(sim, options, static_cast<std::int64_t>(run) * S + s, pairs,
-                                        self_calibration));
+                                        covariance));
       if (progress) progress(++done, total);
     }
   return r;

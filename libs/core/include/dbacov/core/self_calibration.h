@@ -71,7 +71,7 @@
 //             (1 up to sampling, sd √(2 / 6R), where the solve is linear; beyond it what the
 //             solve's nonlinearity at low SNR adds). The covariance is D^½ V D^½, D = k_a per
 //             keyframe. Needs the solver, so it runs through runSelfCalibration
-//             (dbacov/sim/bootstrap.h); selfCalibrate refuses it.
+//             (dbacov/study/bootstrap.h); selfCalibrate refuses it.
 // Factors on the depths alone (DROID's stereo edges k == k, RGB-D readings) have no pose rows:
 // v = −(√λ J_d / h_k) b_k. Each stereo edge gets its own vce scale and the readings one shared
 // scale (SelfCalibration::sensor_depth_scale), in every method: inflation / α divided (vce,
@@ -236,7 +236,7 @@ struct SelfCalibration {
 /// invalid snapshot, std::invalid_argument for invalid options and NumericalError when the
 /// reduced system is not positive definite or (sandwich) there are not enough edges;
 /// std::invalid_argument for the bootstrap method, which needs the DBA solver
-/// (runSelfCalibration, dbacov/sim/bootstrap.h).
+/// (runSelfCalibration, dbacov/study/bootstrap.h).
 SelfCalibration selfCalibrate(const Snapshot& snapshot, const DbaOptions& options,
                               const SelfCalibrationOptions& calibration = {});
 

@@ -1,6 +1,6 @@
 // The nuisance self-calibration's flow-error basis (self_calibration.h, method nuisance), shared
 // by the method (self_calibration.cpp) and the bootstrap that draws fields from it
-// (dbacov/sim/bootstrap.h). Internal.
+// (dbacov/study/bootstrap.h). Internal.
 #pragma once
 
 #include <algorithm>

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "dbacov/core/covariance.h"
 #include "dbacov/core/dba_solver.h"
 #include "dbacov/core/options.h"
 #include "dbacov/core/self_calibration.h"
@@ -41,6 +42,15 @@ struct EvaluationSamples {
   void append(const EvaluationSamples& other);
 };
 
+/// How a snapshot's covariance is computed for the evaluation.
+using CovarianceFunction = std::function<DbaCovariance(const Snapshot&, const DbaOptions&)>;
+
+/// The product's pipeline (computeCovariance): without `self_calibration` the stated model,
+/// with it the self-calibration it names (the default method through the pipeline, the others
+/// of self_calibration.h through selfCalibrate; the bootstrap is the study's, which passes its
+/// own CovarianceFunction). The options are copied.
+CovarianceFunction pipelineCovariance(const SelfCalibrationOptions* self_calibration);
+
 /// The samples of one solved snapshot, covariances computed with `options` (normally the
 /// scenario's engineOptions(); the weight scale may differ to study mis-scaled covariances).
 /// With `self_calibration`, the covariances are self-calibrated from the residuals
@@ -49,6 +59,10 @@ EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& snapshot, const DbaO
                                    std::int64_t run,
                                    PairSelection pairs = PairSelection::Consecutive,
                                    const SelfCalibrationOptions* self_calibration = nullptr);
+/// The same with covariances from `covariance`.
+EvaluationSamples evaluateSnapshot(const SimulatedSnapshot& snapshot, const DbaOptions& options,
+                                   std::int64_t run, PairSelection pairs,
+                                   const CovarianceFunction& covariance);
 
 struct MonteCarloResult {
   EvaluationSamples samples;
@@ -64,5 +78,10 @@ MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs
                                PairSelection pairs = PairSelection::Consecutive,
                                const std::function<void(int, int)>& progress = {},
                                const SelfCalibrationOptions* self_calibration = nullptr);
+/// The same with covariances from `covariance`.
+MonteCarloResult runMonteCarlo(const Scenario& scenario, int first_run, int runs,
+                               const DbaOptions& options, PairSelection pairs,
+                               const std::function<void(int, int)>& progress,
+                               const CovarianceFunction& covariance);
 
 }  // namespace dbacov::sim

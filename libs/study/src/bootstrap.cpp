@@ -1,5 +1,5 @@
 // The parametric bootstrap of the nuisance self-calibration (bootstrap.h).
-#include "dbacov/sim/bootstrap.h"
+#include "dbacov/study/bootstrap.h"
 
 #include <algorithm>
 #include <cmath>

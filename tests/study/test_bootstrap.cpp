@@ -1,4 +1,4 @@
-// The bootstrap self-calibration (dbacov/sim/bootstrap.h): its scale is 1 where the DBA solve is
+// The bootstrap self-calibration (dbacov/study/bootstrap.h): its scale is 1 where the DBA solve is
 // linear, grows where it is not, is reproducible, and its covariance is the nuisance one scaled.
 #include <gtest/gtest.h>
 
@@ -6,8 +6,8 @@
 #include <string>
 
 #include "dbacov/core/threads.h"
-#include "dbacov/sim/bootstrap.h"
 #include "dbacov/sim/scenario.h"
+#include "dbacov/study/bootstrap.h"
 
 namespace dbacov::sim {
 namespace {

@@ -32,6 +32,7 @@
 #include "dbacov/sim/consistency.h"
 #include "dbacov/sim/monte_carlo.h"
 #include "dbacov/sim/scenario.h"
+#include "dbacov/study/bootstrap.h"
 
 using namespace dbacov;
 
@@ -325,10 +326,16 @@ static int study(int argc, char** argv) {
           } catch (const std::exception& e) {
             throw std::runtime_error(snap.snapshot.name() + ": " + m + ": " + e.what());
           }
-          x = spec.covariance_only
-                  ? sim::evaluateSnapshot(*at, oc, label)
-                  : sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive,
-                                          &spec.options);
+          // The bootstrap re-solves (dbacov_study); the other methods are the engine's.
+          const sim::CovarianceFunction covariance =
+              spec.covariance_only ? sim::pipelineCovariance(nullptr)
+              : spec.options.method == SelfCalibrationMethod::Bootstrap
+                  ? sim::CovarianceFunction([&spec](const Snapshot& s, const DbaOptions& opt) {
+                      return selfCalibratedCovariance(s, opt, {},
+                                                      runSelfCalibration(s, opt, spec.options));
+                    })
+                  : sim::pipelineCovariance(&spec.options);
+          x = sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive, covariance);
           Row& r = rows[m];
           r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           ++r.snapshots;
