@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The per-edge self-calibration of a snapshot against the edge's mean confidence and flow
-magnitude (README "The shared real snapshot"), as an SVG with two panels.
+magnitude (docs/studies/real-snapshot.md), as an SVG with two panels.
 
     scripts/edge_figure.py [--snapshot ../shared/data/droid_window_0055.npz]
                            [--build build] [--out docs/self_calibration_edges.svg] [-- ARGS...]

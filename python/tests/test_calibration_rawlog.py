@@ -66,7 +66,7 @@ def test_stated_model_is_the_uncalibrated_engine(shared_path, tmp_path):
     assert_agree(cov, raw)
     cal = dbacov.Covariance(shared_path)
     k = cov.keyframes[-1]
-    assert np.trace(cal.marginal(k)) < 1e-3 * np.trace(raw[k])  # README: ~170x smaller sigma
+    assert np.trace(cal.marginal(k)) < 1e-3 * np.trace(raw[k])  # ~170x smaller sigma (README, first run)
 
 
 def test_converge_then_self_calibrate_agrees_with_the_cli(shared_path, tmp_path):
@@ -387,3 +387,19 @@ def test_every_pose_held_by_the_gauge_is_zero_not_a_crash(tmp_path):
     assert cal.self_calibration["optimum"]["free_dof"] == 0
     r = run_cli("-i", path, "--csv", str(tmp_path / "k.csv"), "--weight-scale", "4")
     assert r.returncode == 0, r.stderr
+
+
+def test_droid_gauge_with_t0_past_the_graph_is_refused(shared_path, tmp_path):
+    # DROID optimized none of the graph's poses: every covariance would be exactly 0 (it was,
+    # silently). Refused as t0 = 0 is, in either noise model, by the CLI as by Python.
+    from test_dbacov import npz_arrays
+    a = npz_arrays(shared_path)
+    a["t0"] = np.asarray(int(max(a["ii"].max(), a["jj"].max())) + 1)
+    path = tmp_path / "late_t0.npz"
+    np.savez(path, **a)
+    for stated in (False, True):
+        with pytest.raises(dbacov.NumericalError, match="is past every graph keyframe"):
+            dbacov.Covariance(str(path), gauge="droid", stated_model=stated)
+    r = run_cli("-i", str(path), "--csv", str(tmp_path / "k.csv"), "--gauge", "droid")
+    assert r.returncode == 1, r.stderr
+    assert "is past every graph keyframe (the last is 10), so DROID optimized no pose" in r.stderr

@@ -109,7 +109,7 @@ def test_errors_are_python_exceptions_with_the_cli_messages(shared_path, tmp_pat
 
 
 def test_a_bad_kernel_variant_in_the_environment_is_a_value_error(shared_path):
-    # DBACOV_KERNEL_ISA is read once per process (README "Performance"): a fresh interpreter.
+    # DBACOV_KERNEL_ISA is read once per process (docs/development/performance.md): a fresh interpreter.
     import subprocess
     import sys
     code = ("import dbacov, sys\n"

@@ -385,9 +385,9 @@ TEST(CovarianceApp, UnwritableOutputIsAnError) {
   EXPECT_TRUE(contains(r.err, "no/such/dir/out.csv")) << r.err;
 }
 
-// DBACOV_KERNEL_ISA picks the pixel kernel's variant (README "Performance"); a value that is no
-// variant is a usage error naming the variable (exit 2, before anything is read or written), not
-// a silent fallback and not one error per snapshot.
+// DBACOV_KERNEL_ISA picks the pixel kernel's variant (docs/development/performance.md); a value
+// that is no variant is a usage error naming the variable (exit 2, before anything is read or
+// written), not a silent fallback and not one error per snapshot.
 TEST(CovarianceApp, KernelVariantFromTheEnvironment) {
   testing::TempDir dir;
   writeSynthetic(dir.file("a.npz"), 1, 0);

@@ -504,8 +504,8 @@ TEST(SelfCalibrationMonteCarlo, DepthNoiseKurtosisMakesOutliersConsistent) {
 /// (metric scale). Each stereo edge and the readings get a variance component of their own, the
 /// default then inside its region. Before they had one (stereo edges and readings at factor 1,
 /// the flow's edges corrected) the study's held-out runs gave 8.11 and 8.71, above [4.58, 7.61]
-/// (README); on these runs stereo 8.93 and RGB-D 9.25 (this test's code on the earlier engine),
-/// now 6.49 and 5.98.
+/// (docs/studies/droid-modes.md); on these runs stereo 8.93 and RGB-D 9.25 (this test's code on the
+/// earlier engine), now 6.49 and 5.98.
 TEST(SelfCalibrationMonteCarlo, DepthOnlyFactorsOwnScalesMakeStereoAndRgbdConsistent) {
   for (const sim::SensorMode mode : {sim::SensorMode::Stereo, sim::SensorMode::Rgbd}) {
     SCOPED_TRACE(toString(mode));

@@ -8,9 +8,9 @@
 //     old ones (and keeps growing without those overlap edges).
 //
 // Regime: 16×20 grids (fx ≈ 17 px) with weight scale 3000 (target sigmas 0.02–0.04 px), so that
-// every pixel's inverse depth is well determined and the linearization holds; README.md
-// (Consistency) shows how the ANEES grows above the region when per-pixel depths are poorly
-// determined (nonlinearity), as at DROID-like signal-to-noise.
+// every pixel's inverse depth is well determined and the linearization holds;
+// docs/studies/consistency.md shows how the ANEES grows above the region when per-pixel depths are
+// poorly determined (nonlinearity), as at DROID-like signal-to-noise.
 #include <gtest/gtest.h>
 
 #include "dbacov/core/covariance.h"

@@ -80,10 +80,10 @@ TEST(SelfCalibrationMonteCarlo, DefaultMethodOnARandomFieldAndWiderWhiteNoiseIsN
   RecordProperty("tail", std::to_string(c.tail_95));
   EXPECT_GT(r.anees, r.region.upper) << "raw ANEES " << r.anees;
   // Held out (the scene was fixed before its first run): raw 250, self-calibrated 4.88 against
-  // [4.97, 7.12], relative 4.69: slightly conservative here, 1σ 70.0 %, tail 1.9 % (README,
-  // *Study*). The bounds: never over-confident, and at most 10 % below the region, so that a
-  // change that makes it over-confident or more conservative fails; the shape below (with
-  // n = 240 the tail's band reaches below 0: only its upper side can fail).
+  // [4.97, 7.12], relative 4.69: slightly conservative here, 1σ 70.0 %, tail 1.9 %
+  // (docs/development/testing.md, *Study*). The bounds: never over-confident, and at most 10 %
+  // below the region, so that a change that makes it over-confident or more conservative fails; the
+  // shape below (with n = 240 the tail's band reaches below 0: only its upper side can fail).
   for (const ConsistencyStats& x : {c, summarize(cal.samples.relative)}) {
     EXPECT_LE(x.anees, x.region.upper) << "self-calibrated ANEES " << x.anees;
     EXPECT_GE(x.anees, 0.9 * x.region.lower) << "self-calibrated ANEES " << x.anees;

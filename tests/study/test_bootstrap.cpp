@@ -160,7 +160,8 @@ TEST(BootstrapSelfCalibration, WildResamplingScaleIsOneWhereTheSolveIsLinear) {
 TEST(BootstrapSelfCalibration, WildResamplingSeesWhatOutlierPixelsDoToTheSolve) {
   // 2 % of the pixels err 10× (the study's "outliers"): the parametric draw spreads their energy
   // evenly over the edge's rows, the wild one keeps it on the pixels that have it, whose depths
-  // the solve then moves far (README: ANEES 14.4 against 5.1 on the held-out study runs).
+  // the solve then moves far (docs/studies/bootstrap.md: ANEES 14.4 against 5.1 on the held-out
+  // study runs).
   ScenarioConfig cfg = smallScene(300);
   cfg.noise.outlier_fraction = 0.02;
   cfg.noise.outlier_factor = 10.0;

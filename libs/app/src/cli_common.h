@@ -21,7 +21,7 @@ int usageExitStatus(const CLI::App& cli, const std::string& app, std::ostream& o
 std::string helpText(const CLI::App& cli);
 
 /// Registers --keep-going (the default) and --fail-fast (sets `fail_fast`), mutually exclusive,
-/// for apps that read several snapshots (README "Reliability").
+/// for apps that read several snapshots (docs/reference/reliability.md).
 void addFailurePolicyOptions(CLI::App& cli, bool& fail_fast);
 
 }  // namespace dbacov::app::detail

@@ -20,7 +20,7 @@ namespace dbacov::app {
 namespace {
 
 constexpr const char* kConventions = R"(
-Conventions (README.md has the details):
+Conventions (docs/conventions.md has the details):
   Input snapshots are DROID-SLAM DBA dumps (.npz): poses T_cw [tx ty tz qx qy qz qw], inverse
   depths, targets (x = column, y = row) and confidences per edge and pixel.
   Output poses are camera-to-world T_wc [tx ty tz qx qy qz qw]. Covariances are 6x6 over the
@@ -200,7 +200,7 @@ class Run {
                 "untouched\n";
       return;
     }
-    io::CommitGroup group;  // the outputs change together (README "Reliability")
+    io::CommitGroup group;  // the outputs change together (docs/reference/reliability.md)
     for (std::size_t i = 0; i < sinks_.size(); ++i) {
       if (broken_[i]) {  // reported when it failed
         sum_.outputNotWritten();

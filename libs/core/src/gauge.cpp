@@ -47,6 +47,14 @@ GaugeParameterization makeGauge(const GaugeOptions& options, const Snapshot& s,
       throw NumericalError("gauge droid: no graph keyframe lies below t0 = " +
                                std::to_string(*s.t0) + ", so DROID held no pose of this graph",
                            {keyframes.front()});
+    // t0 past every graph keyframe: DROID optimized none of them, so every covariance would be
+    // exactly 0 (a dump from another place than the BA call, or a wrong t0): refused, as t0 = 0.
+    if (static_cast<int>(g.gauge_slots.size()) == n)
+      throw NumericalError("gauge droid: t0 = " + std::to_string(*s.t0) +
+                               " is past every graph keyframe (the last is " +
+                               std::to_string(keyframes.back()) +
+                               "), so DROID optimized no pose of this graph",
+                           {keyframes.back()});
     g.offset.assign(n + 1, 0);
     for (int k = 0; k < n; ++k) g.offset[k + 1] = g.offset[k] + static_cast<int>(g.basis[k].cols());
     return g;

@@ -1404,7 +1404,7 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     // is second order: beyond ρ = kMaxDepthShare it is not trusted and 1/(1 − ρ) is held at 10,
     // continuously (a switch to the first-order inverse where S − M stops being positive
     // definite made the covariance blow up just before it and drop at it; a cap at ½ made the
-    // white-3× Monte Carlo over-confident, README).
+    // white-3× Monte Carlo over-confident, docs/studies/depth-noise.md).
     // Sigma1 stays 0 x 0 when the gauge holds every pose (no free DoF: every covariance is 0
     // whatever the noise; Eigen's eigensolver does not take an empty matrix).
     Eigen::MatrixXd Sigma1(0, 0);

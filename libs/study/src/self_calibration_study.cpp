@@ -1,5 +1,5 @@
-// Self-calibration study (README "Self-calibration"): noise sources × {raw, calibrated against
-// ground truth, each self-calibration method}, Monte Carlo over held-out runs.
+// Self-calibration study (docs/studies/self-calibration.md): noise sources × {raw, calibrated
+// against ground truth, each self-calibration method}, Monte Carlo over held-out runs.
 //
 //   build/bin/self_calibration_study [--help] [--runs N] [--calibration-runs M] [--first-run R]
 //                                    [--sources a,b,...] [--methods raw,gt,vce,...]
@@ -233,7 +233,7 @@ static int study(int argc, char** argv) {
   for (const Source& src : allSources())
     source_names += (source_names.empty() ? "" : ", ") + src.name;
   CLI::App cli{
-      "Self-calibration study (README \"Self-calibration\"): noise sources x {raw, calibrated "
+      "Self-calibration study (docs/studies/self-calibration.md): noise sources x {raw, calibrated "
       "against ground truth (gt), each self-calibration method}, Monte Carlo over held-out runs; "
       "prints one Markdown table row per (source, method).",
       "self_calibration_study"};

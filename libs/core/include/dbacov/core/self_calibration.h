@@ -77,7 +77,7 @@
 // scale (SelfCalibration::sensor_depth_scale), in every method: inflation / α divided (vce,
 // score, autocorr), (s − 1) I in nuisance's meat, clusters of the sandwich's.
 // Default: nuisance with nuisance_nodes = 4 (developed on one set of simulated runs, confirmed on
-// runs it was not tuned on; README "Self-calibration from the residuals").
+// runs it was not tuned on; docs/studies/self-calibration.md).
 // All but sandwich and nuisance produce per-edge inflations; selfCalibratedSnapshot() then divides
 // the edge's weights by c_e and DbaCovariance recomputes the covariance. Assumptions: the state is
 // (close to) the optimum of the snapshot's own factors (see distanceFromOptimum), errors are
@@ -130,7 +130,7 @@ struct EnumNames<BootstrapResampling> {
 enum class ScoreMetric { Information, Covariance };
 
 struct SelfCalibrationOptions {
-  /// The default by measurement (README "Self-calibration from the residuals"): nuisance with a
+  /// The default by measurement (docs/studies/self-calibration.md): nuisance with a
   /// 4 × 4 spline is the one method with ANEES, 1σ coverage and NEES tail inside their targets on
   /// the correlated sources, and slightly conservative (ANEES just below its region) on OpenCV
   /// flow, where the others are over-confident.
@@ -148,11 +148,11 @@ struct SelfCalibrationOptions {
   int bootstrap_replicates = 32;
   unsigned long long bootstrap_seed = 1;
   BootstrapResampling bootstrap_resampling = BootstrapResampling::Parametric;
-  /// Adds the depths' second-order noise term (depth_noise.h, README) of each edge's white noise
-  /// to the calibrated covariance: what the linearization misses where the depths are poorly
-  /// determined (white noise 2x, the low-SNR scene). Not with the bootstrap, which re-solves.
-  /// On by default: held out, it brings white 2x and the low-SNR scene inside their regions and
-  /// moves no other source out (README).
+  /// Adds the depths' second-order noise term (depth_noise.h, docs/studies/depth-noise.md) of each
+  /// edge's white noise to the calibrated covariance: what the linearization misses where the
+  /// depths are poorly determined (white noise 2x, the low-SNR scene). Not with the bootstrap,
+  /// which re-solves. On by default: held out, it brings white 2x and the low-SNR scene inside
+  /// their regions and moves no other source out (docs/studies/depth-noise.md).
   bool depth_noise = true;
   /// With depth_noise: the term's fourth-cumulant share, from the residuals' excess kurtosis and
   /// the two flow axes' joint fourth cumulant (heavy-tailed flow, outliers; depth_noise.h).

@@ -25,8 +25,8 @@ class ThreadLimit {
 std::size_t currentThreadLimit();
 
 /// Throws std::invalid_argument, naming the variable, when DBACOV_KERNEL_ISA names no variant of
-/// the pixel kernel that this CPU runs (README "Performance"). Every linearization would throw
-/// the same; the apps call this with their other usage checks, before reading anything.
+/// the pixel kernel that this CPU runs (docs/development/performance.md). Every linearization would
+/// throw the same; the apps call this with their other usage checks, before reading anything.
 void checkEngineEnvironment();
 
 }  // namespace dbacov

@@ -1,5 +1,4 @@
-// The second-order term of the depths' noise in the pose covariance (README "Self-calibration
-// from the residuals", the depth-noise term).
+// The second-order term of the depths' noise in the pose covariance (docs/studies/depth-noise.md).
 //
 // Every pixel's inverse depth is estimated from a few factors, so its error δ_k (variance
 // σ_k² = 1/h_k at the poses) does not shrink as the snapshot grows. To second order it enters the

@@ -97,7 +97,7 @@ class AtomicOutputFile {
 /// and fsyncs each directory once. Destroying the group without publish() discards every
 /// prepared file: the previous files stay as they were.
 ///
-/// What a kill can leave (docs: README "Reliability"): before publish() — only the previous
+/// What a kill can leave (docs/reference/reliability.md): before publish() — only the previous
 /// files, nothing else (unnamed temporaries vanish with the process); inside the rename loop
 /// (microseconds per file) — the files renamed so far are new, the others previous, and at most
 /// one hidden temporary `.<name>.tmp.<pid>.XXXXXX` (between its linkat and rename); a power cut

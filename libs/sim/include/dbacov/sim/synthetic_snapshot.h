@@ -1,4 +1,4 @@
-// Small synthetic DBA snapshots with ground truth: the README demo and the test fixtures.
+// Small synthetic DBA snapshots with ground truth: the demo and the test fixtures.
 //
 // A pinhole camera (looking along its +z, x right, y down) moves through a box-shaped room along
 // one of the trajectories of trajectory.h; the inverse depth of every pixel is found by ray casting

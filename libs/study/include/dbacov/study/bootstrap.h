@@ -18,7 +18,7 @@
 // and the covariance is D^½ V D^½ with D = k_a on keyframe a's coordinates. e_b is not centred:
 // the replicates' mean offset is the solve's nonlinear bias, which a consistent covariance must
 // cover too. The joint k over all K coordinates is reported (bootstrap_scale). Measured: closer
-// at low SNR, not all the way (README "The bootstrap method": the state's depths are themselves
+// at low SNR, not all the way (docs/studies/bootstrap.md: the state's depths are themselves
 // estimates, and the nonlinearity around them is milder than around the truth).
 //
 // Assumptions: the state is (close to) the optimum of its factors (as for every residual-based
