@@ -97,7 +97,8 @@ DenseModel buildModel(const Snapshot& s, const DbaOptions& o, bool keep_depth_te
   const int n = static_cast<int>(m.ne.keyframes.size()), K = m.gauge.dim();
   m.basis = Eigen::MatrixXd::Zero(6 * n, K);
   for (int a = 0; a < n; ++a)
-    m.basis.block(6 * a, m.gauge.offset[a], 6, m.gauge.dimOf(a)) = m.gauge.basis[a];
+    if (m.gauge.dimOf(a) > 0)  // (a block of an empty matrix would offset a null pointer)
+      m.basis.block(6 * a, m.gauge.offset[a], 6, m.gauge.dimOf(a)) = m.gauge.basis[a];
   m.Sr = Eigen::MatrixXd::Zero(K, K);
   m.Sigma_r = Eigen::MatrixXd::Zero(K, K);
   if (K > 0) {
@@ -1224,6 +1225,13 @@ SelfCalibration selfCalibrate(const Snapshot& s, const DbaOptions& o,
     const Snapshot& cur = it == 0 ? s : inflated;
     const DbaOptions oi = it == 0 ? o : sensorCalibratedOptions(o, out.sensor_depth_scale);
     DenseModel model = buildModel(cur, oi);
+    // The gauge holds every pose: every covariance is 0 whatever the noise, and there is no
+    // free direction for the residuals to calibrate (selfCalibratedCovariance: the engine's).
+    if (model.gauge.dim() == 0) {
+      out.passes = 1;
+      out.optimum.free_dof = 0;
+      return out;
+    }
     const bool nuisance = c.method == SelfCalibrationMethod::Nuisance;
     std::vector<SourceTerms> sources;
     std::vector<EdgeAccum> sensor;
@@ -1378,6 +1386,11 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
           ", " + std::to_string(cal.edges[e].j) + "): it is of another snapshot");
   SelfCalibrationSummary summary{toString(cal.method), cal.inflations()};
   summary.sensor_depth_scale = cal.sensor_depth_scale;
+  if (cal.passes > 0 && cal.optimum.free_dof == 0) {  // the gauge holds every pose: all 0
+    DbaCovariance cov(s, o, solver);
+    cov.setSelfCalibrationSummary(std::move(summary));
+    return cov;
+  }
   // The sensor readings' information at their fitted scale, wherever the model is rebuilt.
   const DbaOptions oc = sensorCalibratedOptions(o, cal.sensor_depth_scale);
   if (cal.depth_noise && cal.method != SelfCalibrationMethod::Bootstrap) {
