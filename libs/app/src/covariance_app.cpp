@@ -257,8 +257,7 @@ class Run {
     try {
       if (opt_.fps) deriveKeyframeTimes(s, *opt_.fps, opt_.start_time);
       for (const auto& sink : sinks_) sink->check(s);
-      auto cov = selfcal_.active() ? selfcal_.covariance(s, engine, covariance)
-                                   : std::make_unique<DbaCovariance>(s, engine, covariance);
+      auto cov = selfcal_.covariance(s, engine, covariance);  // computeCovariance, either model
       for (const auto& sink : sinks_) sink->verify(s, *cov);
       item.cov = std::move(cov);
     } catch (const std::exception& e) {

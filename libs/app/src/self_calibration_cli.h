@@ -31,10 +31,9 @@ void addSelfCalibrationOptions(CLI::App& cli, SelfCalibrationCli& o, bool output
 class SelfCalibrationRun {
  public:
   explicit SelfCalibrationRun(const SelfCalibrationCli& cli);
-  bool active() const { return cli_.calibrated() || cli_.converge; }
 
-  /// The covariance of one snapshot: with --converge the snapshot's DBA is solved first (its
-  /// state is overwritten), with --self-calibrate the covariance is self-calibrated. A warning
+  /// The covariance of one snapshot (computeCovariance): with --converge the snapshot's DBA is
+  /// solved first (its state is overwritten); self-calibrated unless --stated-model. A warning
   /// is recorded when the state is far from its optimum or the solve did not converge.
   std::unique_ptr<DbaCovariance> covariance(Snapshot& s, const DbaOptions& o,
                                             const CovarianceOptions& solver);

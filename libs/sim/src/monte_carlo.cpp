@@ -17,8 +17,6 @@ CovarianceFunction pipelineCovariance(const SelfCalibrationOptions* self_calibra
   std::optional<SelfCalibrationOptions> c;
   if (self_calibration) c = *self_calibration;
   return [c](const Snapshot& s, const DbaOptions& options) {
-    if (c && c->method != SelfCalibrationMethod::Nuisance)
-      return selfCalibratedCovariance(s, options, {}, selfCalibrate(s, options, *c));
     PipelineOptions p;
     p.engine = options;
     p.stated_model = !c;
