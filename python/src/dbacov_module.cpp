@@ -163,7 +163,7 @@ SelfCalibrationAppOptions selfCalibrationOptions(bool stated_model, std::optiona
 
 py::dict calibrationDict(const SelfCalibration& cal) {
   py::dict d;
-  d["method"] = std::string(toString(cal.method));
+  d["method"] = cal.method;
   d["global_scale"] = cal.global_scale;
   d["passes"] = cal.passes;
   d["sensor_depth_scale"] = cal.sensor_depth_scale;  // RGB-D readings' variance factor (1: none)

@@ -4,7 +4,7 @@
 //
 // This program does not build a float kernel. It emulates what one would compute, pixel by pixel,
 // in plain scalar code templated on the per-pixel type, and hands the resulting reduced system to
-// the engine's own gauge and marginal solver (CovarianceOptions::linearization):
+// the engine's own gauge and marginal solver (a given linearization, given_model.h):
 //   double: the same arithmetic in double (checked against linearizeDba's S: the emulation is
 //           the engine's model, not another one);
 //   float J: the pixel's Jacobians computed in float from float inputs, products and the depth
@@ -32,6 +32,7 @@
 #include "bench_problems.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/dba_factor.h"
+#include "dbacov/core/given_model.h"
 #include "dbacov/core/linearization.h"
 
 namespace {
@@ -228,9 +229,9 @@ bool run(const std::string& name, const Snapshot& s) {
     // How close the emulated S is to the engine's, relative to S's largest entry.
     const Eigen::MatrixXd Se = ne.S.toDense(), Sm = emulated->S.toDense();
     const double dS = (Se - Sm).cwiseAbs().maxCoeff() / Se.cwiseAbs().maxCoeff();
-    CovarianceOptions co;
-    co.linearization = emulated;
-    const DbaCovariance cov(s, o, co);
+    detail::GivenModel given;
+    given.linearization = emulated;
+    const DbaCovariance cov = given.build(s, o, {});
     const Result r = compare(engine, cov);
     const char* label = kind == Precision::Double           ? "double (the check)"
                         : kind == Precision::FloatJacobians ? "float J"

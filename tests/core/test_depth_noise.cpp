@@ -354,33 +354,25 @@ Eigen::MatrixXd freeJoint(const DbaCovariance& c, std::vector<int>* free) {
   return J;
 }
 
-/// The wiring: for every method's path through selfCalibratedCovariance (vce: its inflations are
-/// the white factors; score: a model beyond them; nuisance: its own reduced covariance), the
-/// covariance with the term minus the one without is Σ₁ + Σ₁(M + N)Σ₁ − Σ_w, written here from
+/// The wiring through selfCalibratedCovariance: the covariance with the term minus the one
+/// without is Σ₁ + Σ₁(M + N)Σ₁ − Σ_w, written here from
 /// its definition on the white-inflated snapshot: Σ_w its joint covariance from the sparse query
 /// API, Σ₁ = (Σ_w⁻¹ − M)⁻¹, M and N (and their κ terms, at the estimated γ₂ and γ_xy) from
 /// depthNoiseTerms (checked above) on the free keyframes.
-TEST(DepthNoise, CalibratedCovarianceAddsTheTermToEachMethod) {
+TEST(DepthNoise, CalibratedCovarianceAddsTheTerm) {
   sim::ScenarioConfig cfg = scene(8, 24, 32, 100.0);
   cfg.noise.outlier_fraction = 0.02;  // heavy tails: the κ share is not 0
   const sim::Scenario sc(cfg);
   const sim::SimulatedSnapshot sim = sc.simulate(0, 4);
   const Snapshot& s = sim.snapshot;
   const DbaOptions o = sc.config().engineOptions();
-  for (SelfCalibrationMethod m : {SelfCalibrationMethod::Vce, SelfCalibrationMethod::Score,
-                                  SelfCalibrationMethod::Nuisance}) {
-    SCOPED_TRACE(toString(m));
-    SelfCalibrationOptions c;
-    c.method = m;
+  {
+    const SelfCalibrationOptions c;
     ASSERT_TRUE(c.depth_noise) << "the term is the default";
     const SelfCalibration with = selfCalibrate(s, o, c);
     SelfCalibration without = with;
     without.depth_noise = false;
-    std::vector<double> white;
-    for (const EdgeCalibration& e : with.edges)
-      white.push_back(m == SelfCalibrationMethod::Score ? e.inflation / e.correlation
-                                                        : e.inflation);
-    const Snapshot si = inflateWeights(s, white);
+    const Snapshot si = inflateWeights(s, with.inflations());
     std::vector<int> free, free_w;
     const Eigen::MatrixXd Sw = freeJoint(DbaCovariance(si, o), &free_w);
     const DbaNormalEquations ne = linearizeDba(si, o, true);
@@ -408,7 +400,7 @@ TEST(DepthNoise, CalibratedCovarianceAddsTheTermToEachMethod) {
     const Eigen::MatrixXd got = freeJoint(cw, &free) - own;
     ASSERT_EQ(free, free_w);
     EXPECT_LE((got - term).norm(), 1e-6 * term.norm());
-    // What the summaries report: the term's trace over the method's own, and the γ₂ used.
+    // What the summaries report: the term's trace over the model's own, and the γ₂ used.
     EXPECT_NEAR(cw.summary().self_calibration.depth_noise_share, term.trace() / own.trace(),
                 1e-6 * term.trace() / own.trace());
     EXPECT_EQ(cw.summary().self_calibration.depth_noise_kurtosis, dn.kurtosis);
@@ -446,15 +438,14 @@ std::pair<ConsistencyStats, ConsistencyStats> monteCarloPair(
 }
 
 /// The claim, by Monte Carlo on runs no formula was fitted to: white noise 3x the claimed at
-/// weight scale 100 on a 24 x 32 grid, where the depths are poorly determined. vce finds the
-/// scale; without the depth-noise term the covariance is still over-confident (the linearization
-/// misses the depths' error), with it the ANEES is inside its 95 % region.
+/// weight scale 100 on a 24 x 32 grid, where the depths are poorly determined. The calibration
+/// finds the scale; without the depth-noise term the covariance is still over-confident (the
+/// linearization misses the depths' error), with it the ANEES is inside its 95 % region.
 TEST(SelfCalibrationMonteCarlo, DepthNoiseTermMakesStrongWhiteNoiseConsistent) {
   sim::ScenarioConfig cfg = scene(21, 24, 32, 100.0);
   cfg.noise.amplitude = 3.0;
   const sim::Scenario sc(cfg);
   SelfCalibrationOptions with, without;
-  with.method = without.method = SelfCalibrationMethod::Vce;
   with.depth_noise = true;
   without.depth_noise = false;
   const auto [sa, sb] = monteCarloPair(sc, 100, "with the term:", &with, "without:", &without);
@@ -469,8 +460,7 @@ TEST(SelfCalibrationMonteCarlo, DepthNoiseTermMakesStrongWhiteNoiseConsistent) {
 /// 100-159 of this seed: raw 7.18, above its region [5.16, 6.91], with the term 6.24).
 TEST(SelfCalibrationMonteCarlo, DepthNoiseTermKeepsMatchingWhiteNoiseConsistent) {
   const sim::Scenario sc(scene(21, 24, 32, 100.0));
-  SelfCalibrationOptions c;
-  c.method = SelfCalibrationMethod::Vce;
+  const SelfCalibrationOptions c;
   const auto [sa, sr] = monteCarloPair(sc, 300, "with the term:", &c, "raw:", nullptr);
   EXPECT_TRUE(sa.inside) << sa.anees << " outside [" << sa.region.lower << ", " << sa.region.upper
                          << "]";
@@ -489,7 +479,6 @@ TEST(SelfCalibrationMonteCarlo, DepthNoiseKurtosisMakesOutliersConsistent) {
   cfg.noise.outlier_factor = 10.0;
   const sim::Scenario sc(cfg);
   SelfCalibrationOptions with, gaussian;
-  with.method = gaussian.method = SelfCalibrationMethod::Vce;
   gaussian.depth_noise_kurtosis = false;
   const auto [sa, sb] =
       monteCarloPair(sc, 500, "with the kurtosis:", &with, "Gaussian term:", &gaussian);
@@ -532,13 +521,9 @@ TEST(SelfCalibrationMonteCarlo, DepthOnlyFactorsOwnScalesMakeStereoAndRgbdConsis
       // One pass: the state is not the optimum at the claimed α, whose non-zero gradient adds
       // to the readings' residuals (runs 700-719: mean 4.5, 4.27 to 4.76; at the optimum of
       // the claimed α, where one pass is pulled towards 1 by the flow rows sharing the depths,
-      // 3.38 to 3.76 on runs 700-709). vce's passes move α to the state's fixed point.
+      // 3.38 to 3.76 on runs 700-709).
       EXPECT_GT(cal.sensor_depth_scale, 3.5);
       EXPECT_LT(cal.sensor_depth_scale, 5.2);
-      SelfCalibrationOptions it;
-      it.method = SelfCalibrationMethod::Vce;
-      it.iterations = 5;
-      EXPECT_NEAR(selfCalibrate(snap, o, it).sensor_depth_scale, 4.0, 0.35);
     }
     const auto [sa, sr] = monteCarloPair(sc, 700, "default:", &c, "raw:", nullptr, &o);
     EXPECT_GT(sr.anees, sr.region.upper) << "the scene does not test the components";

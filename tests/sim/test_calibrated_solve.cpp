@@ -14,6 +14,7 @@
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/errors.h"
 #include "dbacov/core/self_calibration.h"
+#include "dbacov/core/self_calibration_fit.h"
 #include "dbacov/sim/consistency.h"
 #include "dbacov/sim/monte_carlo.h"
 #include "dbacov/sim/scenario.h"
@@ -156,10 +157,7 @@ TEST(CalibratedSolve, RatiosAreAgainstTheFlowEdgesAlone) {
   const DbaOptions o = cfg.engineOptions();
   Snapshot s = sc.simulate(0, 11).snapshot;
   overWeightStereoEdges(s, 4.0);
-  SelfCalibrationOptions vce;
-  vce.method = SelfCalibrationMethod::Vce;
-  vce.depth_noise = false;
-  const SelfCalibration cal = selfCalibrate(s, o, vce);
+  const SelfCalibration cal = varianceComponents(s, o);
   double q = 0, red = 0;
   int stereo = 0;
   for (const EdgeCalibration& e : cal.edges) {

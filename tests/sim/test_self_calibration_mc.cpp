@@ -2,13 +2,14 @@
 // distribution: a per-edge affine flow error that the confidences do not describe makes the raw
 // covariances over-confident (ANEES far above the 95 % region); the default self-calibration,
 // from each snapshot's residuals alone, brings the absolute and relative ANEES inside, and the
-// shape too: 1σ coverage and the NEES tail within their binomial regions, where the score
-// method's one scale per edge (the former default) leaves the coverage far above nominal.
+// shape too: 1σ coverage and the NEES tail within their binomial regions, where one white scale
+// per edge (the variance components without the field) leaves the coverage far above nominal.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "dbacov/core/self_calibration.h"
+#include "dbacov/core/self_calibration_fit.h"
 #include "dbacov/sim/monte_carlo.h"
 
 namespace dbacov::sim {
@@ -49,14 +50,18 @@ TEST(SelfCalibrationMonteCarlo, DefaultMethodBringsAffineFlowErrorsInsideTheRegi
                tail_sd = 1.5 * std::sqrt(0.05 * 0.95 / n);
   EXPECT_NEAR(c.coverage_all[0], 0.683, 3 * cov_sd) << "1-sigma coverage, " << n << " samples";
   EXPECT_NEAR(c.tail_95, 0.05, 3 * tail_sd) << "NEES tail, " << n << " samples";
-  // The former default (score) on the same runs: ANEES fine, coverage far above nominal (one scale
-  // per edge cannot make an affine error's few directions and the rest both right). Checked so
-  // that the shape test above is not void.
-  SelfCalibrationOptions score;
-  score.method = SelfCalibrationMethod::Score;
-  const MonteCarloResult sc_cal =
-      runMonteCarlo(sc, 0, 40, o, PairSelection::Consecutive, {}, &score);
-  EXPECT_GT(summarize(sc_cal.samples.absolute).coverage_all[0], 0.683 + 3 * cov_sd);
+  // One white scale per edge on the same runs (each edge's weights divided by its q / ρ, no
+  // field): coverage far from nominal (one scale per edge cannot make an affine error's few
+  // directions and the rest both right). Checked so that the shape test above is not void.
+  const CovarianceFunction per_edge_scale = [](const Snapshot& s, const DbaOptions& opt) {
+    std::vector<double> scales;
+    for (const EdgeCalibration& e : varianceComponents(s, opt).edges)
+      scales.push_back(e.vce_scale > 0 && std::isfinite(e.vce_scale) ? e.vce_scale : 1.0);
+    return DbaCovariance(inflateWeights(s, scales), opt);
+  };
+  const MonteCarloResult scaled =
+      runMonteCarlo(sc, 0, 40, o, PairSelection::Consecutive, {}, per_edge_scale);
+  EXPECT_GT(std::abs(summarize(scaled.samples.absolute).coverage_all[0] - 0.683), 3 * cov_sd);
 }
 
 /// The study's "field" source in this regime: a Gaussian random field on each edge's flow

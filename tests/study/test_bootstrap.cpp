@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "dbacov/core/self_calibration_fit.h"
 #include "dbacov/core/threads.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/study/bootstrap.h"
@@ -25,18 +26,26 @@ ScenarioConfig smallScene(double weight_scale) {
   return c;
 }
 
-SelfCalibrationOptions bootstrap(int replicates, unsigned long long seed = 1) {
-  SelfCalibrationOptions c;
-  c.method = SelfCalibrationMethod::Bootstrap;
-  c.bootstrap_replicates = replicates;
-  c.bootstrap_seed = seed;
+BootstrapOptions bootstrap(int replicates, unsigned long long seed = 1) {
+  BootstrapOptions c;
+  c.replicates = replicates;
+  c.seed = seed;
   return c;
 }
 
-SelfCalibrationOptions wildBootstrap(int replicates) {
-  SelfCalibrationOptions c = bootstrap(replicates);
-  c.bootstrap_resampling = BootstrapResampling::Wild;
+BootstrapOptions wildBootstrap(int replicates) {
+  BootstrapOptions c = bootstrap(replicates);
+  c.resampling = BootstrapResampling::Wild;
   return c;
+}
+
+BootstrapCalibration run(const Snapshot& s, const DbaOptions& o, const BootstrapOptions& b) {
+  return bootstrapSelfCalibration(s, o, {}, b);
+}
+
+/// The calibration's covariance in the gauge's reduced coordinates.
+const Eigen::MatrixXd& reduced(const SelfCalibration& c) {
+  return *c.fit->reduced_covariance;
 }
 
 TEST(BootstrapSelfCalibration, ScaleIsOneWhereTheSolveIsLinearAndTheCovarianceIsNuisanceScaled) {
@@ -44,26 +53,27 @@ TEST(BootstrapSelfCalibration, ScaleIsOneWhereTheSolveIsLinearAndTheCovarianceIs
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0);
   const int R = 24;
-  const SelfCalibration boot = runSelfCalibration(sim.snapshot, o, bootstrap(R));
+  const BootstrapCalibration boot = run(sim.snapshot, o, bootstrap(R));
   SelfCalibrationOptions nc;
-  nc.method = SelfCalibrationMethod::Nuisance;
-  const SelfCalibration nuis = runSelfCalibration(sim.snapshot, o, nc);
-  ASSERT_TRUE(boot.reduced_covariance && nuis.reduced_covariance);
-  EXPECT_EQ(boot.method, SelfCalibrationMethod::Bootstrap);
-  EXPECT_EQ(boot.bootstrap_replicates, R);
-  EXPECT_EQ(boot.bootstrap_failed, 0);
+  nc.depth_noise = false;
+  const SelfCalibration nuis = selfCalibrate(sim.snapshot, o, nc);
+  ASSERT_TRUE(boot.calibration.fit && nuis.fit);
+  EXPECT_EQ(boot.calibration.method, "bootstrap");
+  EXPECT_FALSE(boot.calibration.depth_noise);
+  EXPECT_EQ(boot.replicates, R);
+  EXPECT_EQ(boot.failed, 0);
   // Linear: k is a mean of R·K χ²(1)-like terms, sd √(2 / (R K)), each keyframe's k_a of R·6,
   // sd √(2 / (6 R)); 5 sd.
-  const int K = static_cast<int>(nuis.reduced_covariance->rows());
-  RecordProperty("bootstrap_scale", std::to_string(boot.bootstrap_scale));
-  EXPECT_NEAR(boot.bootstrap_scale, 1.0, 5 * std::sqrt(2.0 / (R * K)))
+  const int K = static_cast<int>(reduced(nuis).rows());
+  RecordProperty("bootstrap_scale", std::to_string(boot.scale));
+  EXPECT_NEAR(boot.scale, 1.0, 5 * std::sqrt(2.0 / (R * K)))
       << R << " replicates, " << K << " free DoF";
   // The gauge holds the first two keyframes: 4 free ones of 6 DoF, in slot order.
   ASSERT_EQ(K, 24);
-  ASSERT_EQ(boot.bootstrap_keyframe_scales.size(), 6u);
+  ASSERT_EQ(boot.keyframe_scales.size(), 6u);
   Eigen::VectorXd root(K);
   for (int a = 0; a < 6; ++a) {
-    const double k = boot.bootstrap_keyframe_scales[a];
+    const double k = boot.keyframe_scales[a];
     if (a < 2) {
       EXPECT_EQ(k, 1.0) << "fixed keyframe " << a;
       continue;
@@ -72,12 +82,12 @@ TEST(BootstrapSelfCalibration, ScaleIsOneWhereTheSolveIsLinearAndTheCovarianceIs
     root.segment<6>(6 * (a - 2)).setConstant(std::sqrt(k));
   }
   // The covariance is the nuisance one with each keyframe's marginal scaled by its k_a.
-  const Eigen::MatrixXd expected = root.asDiagonal() * *nuis.reduced_covariance * root.asDiagonal();
-  EXPECT_LT((*boot.reduced_covariance - expected).cwiseAbs().maxCoeff(),
+  const Eigen::MatrixXd expected = root.asDiagonal() * reduced(nuis) * root.asDiagonal();
+  EXPECT_LT((reduced(boot.calibration) - expected).cwiseAbs().maxCoeff(),
             1e-12 * expected.cwiseAbs().maxCoeff());
   // The edges' white scales are the nuisance method's.
-  for (std::size_t e = 0; e < boot.edges.size(); ++e)
-    EXPECT_EQ(boot.edges[e].inflation, nuis.edges[e].inflation) << "edge " << e;
+  for (std::size_t e = 0; e < boot.calibration.edges.size(); ++e)
+    EXPECT_EQ(boot.calibration.edges[e].inflation, nuis.edges[e].inflation) << "edge " << e;
 }
 
 TEST(BootstrapSelfCalibration, StereoAndSensorDepthsAreRedrawnScaleIsOne) {
@@ -98,16 +108,15 @@ TEST(BootstrapSelfCalibration, StereoAndSensorDepthsAreRedrawnScaleIsOne) {
     const DbaOptions o = sc.config().engineOptions();
     const SimulatedSnapshot sim = sc.simulate(0);
     const int R = 24;
-    const SelfCalibration boot = runSelfCalibration(sim.snapshot, o, bootstrap(R));
-    ASSERT_TRUE(boot.reduced_covariance);
-    EXPECT_EQ(boot.bootstrap_replicates, R);
-    const int K = static_cast<int>(boot.reduced_covariance->rows());
-    RecordProperty(std::string("bootstrap_scale_") + toString(mode),
-                   std::to_string(boot.bootstrap_scale));
-    EXPECT_NEAR(boot.bootstrap_scale, 1.0, 5 * std::sqrt(2.0 / (R * K)))
+    const BootstrapCalibration boot = run(sim.snapshot, o, bootstrap(R));
+    ASSERT_TRUE(boot.calibration.fit);
+    EXPECT_EQ(boot.replicates, R);
+    const int K = static_cast<int>(reduced(boot.calibration).rows());
+    RecordProperty(std::string("bootstrap_scale_") + toString(mode), std::to_string(boot.scale));
+    EXPECT_NEAR(boot.scale, 1.0, 5 * std::sqrt(2.0 / (R * K)))
         << R << " replicates, " << K << " free DoF";
-    const SelfCalibration wild = runSelfCalibration(sim.snapshot, o, wildBootstrap(R));
-    EXPECT_NEAR(wild.bootstrap_scale, 1.0, 5 * std::sqrt(2.0 / (R * K))) << "wild";
+    const BootstrapCalibration wild = run(sim.snapshot, o, wildBootstrap(R));
+    EXPECT_NEAR(wild.scale, 1.0, 5 * std::sqrt(2.0 / (R * K))) << "wild";
   }
 }
 
@@ -125,15 +134,14 @@ TEST(BootstrapSelfCalibration, StereoAndSensorDepthsRedrawnEachWayInAFewReplicat
     const Scenario sc(cfg);
     const DbaOptions o = sc.config().engineOptions();
     const SimulatedSnapshot sim = sc.simulate(0);
-    for (const SelfCalibrationOptions& c : {bootstrap(4), wildBootstrap(4)}) {
-      const SelfCalibration boot = runSelfCalibration(sim.snapshot, o, c);
-      ASSERT_TRUE(boot.reduced_covariance);
-      EXPECT_EQ(boot.bootstrap_replicates, 4);
-      EXPECT_EQ(boot.bootstrap_failed, 0);
-      EXPECT_TRUE(std::isfinite(boot.bootstrap_scale) && boot.bootstrap_scale > 0)
-          << boot.bootstrap_scale;
-      EXPECT_TRUE(boot.reduced_covariance->allFinite());
-      EXPECT_EQ(boot.bootstrap_keyframe_scales.size(), 6u);
+    for (const BootstrapOptions& c : {bootstrap(4), wildBootstrap(4)}) {
+      const BootstrapCalibration boot = run(sim.snapshot, o, c);
+      ASSERT_TRUE(boot.calibration.fit);
+      EXPECT_EQ(boot.replicates, 4);
+      EXPECT_EQ(boot.failed, 0);
+      EXPECT_TRUE(std::isfinite(boot.scale) && boot.scale > 0) << boot.scale;
+      EXPECT_TRUE(reduced(boot.calibration).allFinite());
+      EXPECT_EQ(boot.keyframe_scales.size(), 6u);
     }
   }
 }
@@ -145,14 +153,14 @@ TEST(BootstrapSelfCalibration, WildResamplingScaleIsOneWhereTheSolveIsLinear) {
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0);
   const int R = 24;
-  const SelfCalibration wild = runSelfCalibration(sim.snapshot, o, wildBootstrap(R));
-  const SelfCalibration para = runSelfCalibration(sim.snapshot, o, bootstrap(R));
-  const int K = static_cast<int>(wild.reduced_covariance->rows());
-  RecordProperty("wild_bootstrap_scale", std::to_string(wild.bootstrap_scale));
-  EXPECT_EQ(wild.bootstrap_replicates, R);
-  EXPECT_NEAR(wild.bootstrap_scale, 1.0, 5 * std::sqrt(2.0 / (R * K)));
+  const BootstrapCalibration wild = run(sim.snapshot, o, wildBootstrap(R));
+  const BootstrapCalibration para = run(sim.snapshot, o, bootstrap(R));
+  const int K = static_cast<int>(reduced(wild.calibration).rows());
+  RecordProperty("wild_bootstrap_scale", std::to_string(wild.scale));
+  EXPECT_EQ(wild.replicates, R);
+  EXPECT_NEAR(wild.scale, 1.0, 5 * std::sqrt(2.0 / (R * K)));
   // Not the parametric draw under another name.
-  EXPECT_NE(wild.bootstrap_scale, para.bootstrap_scale);
+  EXPECT_NE(wild.scale, para.scale);
   EXPECT_EQ(parseEnum<BootstrapResampling>("wild"), BootstrapResampling::Wild);
   EXPECT_THROW(parseEnum<BootstrapResampling>("block"), std::invalid_argument);
 }
@@ -169,12 +177,12 @@ TEST(BootstrapSelfCalibration, WildResamplingSeesWhatOutlierPixelsDoToTheSolve) 
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0);
   const int R = 24;
-  const SelfCalibration wild = runSelfCalibration(sim.snapshot, o, wildBootstrap(R));
-  const SelfCalibration para = runSelfCalibration(sim.snapshot, o, bootstrap(R));
-  const double K = static_cast<double>(wild.reduced_covariance->rows());
-  RecordProperty("wild_bootstrap_scale", std::to_string(wild.bootstrap_scale));
-  RecordProperty("parametric_bootstrap_scale", std::to_string(para.bootstrap_scale));
-  EXPECT_GT(wild.bootstrap_scale, para.bootstrap_scale * (1 + 5 * std::sqrt(2.0 / (R * K))));
+  const BootstrapCalibration wild = run(sim.snapshot, o, wildBootstrap(R));
+  const BootstrapCalibration para = run(sim.snapshot, o, bootstrap(R));
+  const double K = static_cast<double>(reduced(wild.calibration).rows());
+  RecordProperty("wild_bootstrap_scale", std::to_string(wild.scale));
+  RecordProperty("parametric_bootstrap_scale", std::to_string(para.scale));
+  EXPECT_GT(wild.scale, para.scale * (1 + 5 * std::sqrt(2.0 / (R * K))));
 }
 
 TEST(BootstrapSelfCalibration, ScaleGrowsWhereTheSolveIsNonlinear) {
@@ -184,10 +192,10 @@ TEST(BootstrapSelfCalibration, ScaleGrowsWhereTheSolveIsNonlinear) {
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0);
   const int R = 24;
-  const SelfCalibration boot = runSelfCalibration(sim.snapshot, o, bootstrap(R));
-  const double K = static_cast<double>(boot.reduced_covariance->rows());
-  RecordProperty("bootstrap_scale", std::to_string(boot.bootstrap_scale));
-  EXPECT_GT(boot.bootstrap_scale, 1.0 + 5 * std::sqrt(2.0 / (R * K)))
+  const BootstrapCalibration boot = run(sim.snapshot, o, bootstrap(R));
+  const double K = static_cast<double>(reduced(boot.calibration).rows());
+  RecordProperty("bootstrap_scale", std::to_string(boot.scale));
+  EXPECT_GT(boot.scale, 1.0 + 5 * std::sqrt(2.0 / (R * K)))
       << R << " replicates, " << K << " free DoF";
 }
 
@@ -196,23 +204,22 @@ TEST(BootstrapSelfCalibration, ReproducibleWhateverTheThreadsAndSeeded) {
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0, 1);
   // The joint scale with `threads` worker threads.
-  const auto scaleAt = [&](std::size_t threads, const SelfCalibrationOptions& c) {
+  const auto scaleAt = [&](std::size_t threads, const BootstrapOptions& c) {
     const ThreadLimit limit(threads);
-    return runSelfCalibration(sim.snapshot, o, c).bootstrap_scale;
+    return run(sim.snapshot, o, c).scale;
   };
   const double one = scaleAt(1, bootstrap(8));
   EXPECT_EQ(one, scaleAt(2, bootstrap(8)));
   EXPECT_EQ(scaleAt(1, wildBootstrap(8)), scaleAt(2, wildBootstrap(8)));
-  EXPECT_NE(runSelfCalibration(sim.snapshot, o, bootstrap(8, 2)).bootstrap_scale, one);
+  EXPECT_NE(run(sim.snapshot, o, bootstrap(8, 2)).scale, one);
 }
 
-TEST(BootstrapSelfCalibration, RefusedWithoutTheSolverAndBadReplicates) {
+TEST(BootstrapSelfCalibration, RefusedWithTooFewReplicates) {
   const Scenario sc(smallScene(3000));
   const DbaOptions o = sc.config().engineOptions();
   const SimulatedSnapshot sim = sc.simulate(0);
-  EXPECT_THROW(selfCalibrate(sim.snapshot, o, bootstrap(8)), std::invalid_argument);
-  EXPECT_THROW(runSelfCalibration(sim.snapshot, o, bootstrap(3)), std::invalid_argument);
-  EXPECT_EQ(parseSelfCalibrationMethod("bootstrap"), SelfCalibrationMethod::Bootstrap);
+  EXPECT_THROW(run(sim.snapshot, o, bootstrap(3)), std::invalid_argument);
+  EXPECT_EQ(parseEnum<BootstrapResampling>("wild"), BootstrapResampling::Wild);
 }
 
 }  // namespace

@@ -91,8 +91,6 @@ CLI::Option* addEnumOption(CLI::App& cli, const std::string& flags, std::optiona
       ->check(enumValidator<E>());
 }
 
-template CLI::Validator enumValidator<SelfCalibrationMethod>();
-template CLI::Validator enumValidator<BootstrapResampling>();
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, Preset&, const std::string&);
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, SolverKind&, const std::string&);
 template CLI::Option* addEnumOption(CLI::App&, const std::string&, Ordering&, const std::string&);

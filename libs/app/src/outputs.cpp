@@ -197,10 +197,9 @@ void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) {
     builder_.add(s, cov);  // the snapshot's own covariances, self-calibrated or not
     return;
   }
-  // --self-calibrate: the snapshot's flows enter the sequence at the variance factors its
-  // calibration found (the edges' inflations: vce's and nuisance's white scales, score's and
-  // autocorr's whole factors), so that the graph's information is calibrated as the other
-  // outputs are, not at the claimed weights.
+  // Self-calibrated: the snapshot's flows enter the sequence at the white-noise variance factors
+  // its calibration found, so that the graph's information is calibrated as the other outputs
+  // are, not at the claimed weights.
   const SelfCalibrationSummary& sc = cov.summary().self_calibration;
   if (sc.method.empty() || static_cast<int>(sc.edge_factor.size()) != s.numEdges()) {
     problem_->add(s);
@@ -225,18 +224,15 @@ void GraphSink::commit() {
        << ", KL to the dense information " << formatDouble(sg.kl) << " nats ("
        << formatDouble(sg.kl / std::max(sg.dof, 1)) << " per DoF)";
     if (!calibration_.empty()) {
-      // What a weight per edge cannot carry is said: the depths' second-order term, the
-      // nuisance field and the bootstrap's scale; the sandwich changes no weight.
+      // What a weight per edge cannot carry is said: the depths' second-order term and the
+      // per-edge flow field.
       os << "; self-calibrated (" << calibration_ << "): each snapshot's edges at their variance "
          << "factors";
       std::vector<std::string> left_out;
       if (depth_term_) left_out.push_back("the depths' second-order term");
-      if (calibration_ == "bootstrap") left_out.push_back("the bootstrap's scale");
-      if (calibration_ == "nuisance" || calibration_ == "bootstrap")
-        left_out.push_back("the per-edge flow field (white noise only)");
+      left_out.push_back("the per-edge flow field (white noise only)");
       for (std::size_t i = 0; i < left_out.size(); ++i)
         os << (i == 0 ? ", without " : " and ") << left_out[i];
-      if (calibration_ == "sandwich") os << " (the sandwich keeps the weights: not calibrated)";
     }
     summary_ = os.str();
   } else {

@@ -211,8 +211,8 @@ std::unique_ptr<DbaCovariance> SelfCalibrationRun::covariance(Snapshot& s, const
   for (const EdgeCalibration& e : cal.edges)
     rows << s.label() << ',' << e.i << ',' << e.j << ',' << e.pixels << ','
          << number(e.residual_rms) << ',' << number(e.inflation) << ','
-         << number(e.effective_pixels) << ',' << toString(cal.method) << ',' << number(e.redundancy)
-         << ',' << number(e.vce_scale) << ',' << number(e.correlation) << '\n';
+         << number(e.effective_pixels) << ',' << cal.method << ',' << number(e.redundancy) << ','
+         << number(e.vce_scale) << ',' << number(e.correlation) << '\n';
   std::lock_guard<std::mutex> lock(mutex_);
   if (!text.empty()) warnings_[s.index] = text;
   rows_[s.index] += rows.str();

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "dbacov/core/self_calibration.h"
+#include "dbacov/core/self_calibration_fit.h"
 
 namespace dbacov {
 
@@ -69,15 +70,6 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
   out.solves = 1;
   if (!stereo && !readings) return out;
 
-  // The ratios only: one vce pass, no depths' term (it changes no variance factor).
-  SelfCalibrationOptions ratios;
-  ratios.method = SelfCalibrationMethod::Vce;
-  ratios.iterations = 1;
-  ratios.depth_noise = false;
-  // No clamping of the ratios: a clamped one would read as a measurement and mislead the secant
-  // (readings 1e9× under-weighted measured 1e-9 and the next step overshot 10×).
-  ratios.min_inflation = 1e-300;
-  ratios.max_inflation = 1e300;
   const double bound = std::log1p(tolerance);
   const int E = s.numEdges();
   // Per component (slot E: the readings): the log ratio measured before the last step and that
@@ -110,7 +102,7 @@ CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& s, const DbaOptions& o, in
       out.settled = false;
       return out;
     }
-    const DepthOnlyRatios r = depthOnlyRatios(selfCalibrate(s, out.options, ratios), E);
+    const DepthOnlyRatios r = depthOnlyRatios(varianceComponents(s, out.options), E);
     // Per component k (the edges, then the readings in slot E): its log ratio; one over-weighted
     // beyond measure gets a fixed step down instead, and measures again after it.
     std::vector<double> steps(static_cast<std::size_t>(E) + 1, 0.0);

@@ -11,6 +11,7 @@
 
 #include "dbacov/core/conditioning.h"
 #include "dbacov/core/gauge.h"
+#include "dbacov/core/given_model.h"
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/marginal_solver.h"
 #include "given_marginal_solver.h"
@@ -77,6 +78,10 @@ void checkConditioning(const DbaCovariance& cov) {
 
 DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
                              const CovarianceOptions& so)
+    : DbaCovariance(snapshot, options, so, nullptr) {}
+
+DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
+                             const CovarianceOptions& so, const detail::GivenModel* given)
     : impl_(std::make_unique<Impl>()) {
   using Clock = std::chrono::steady_clock;
   auto seconds = [](Clock::time_point a, Clock::time_point b) {
@@ -86,12 +91,16 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   snapshot.validate();  // the API boundary: InputError for an invalid snapshot (covariance.h)
   Impl& m = *impl_;
   const auto t0 = Clock::now();
-  const bool handed = so.linearization && !so.depth_variances;
-  if (handed && (static_cast<int>(so.linearization->slot_of.size()) != snapshot.numKeyframes() ||
-                 so.linearization->keyframes != snapshot.graphKeyframes()))
-    throw std::invalid_argument("CovarianceOptions::linearization is not that of this snapshot (" +
+  const std::shared_ptr<const Eigen::MatrixXd> reduced_covariance =
+      given ? given->reduced_covariance : nullptr;
+  const std::shared_ptr<const DbaNormalEquations> linearization =
+      given && !so.depth_variances ? given->linearization : nullptr;
+  if (linearization &&
+      (static_cast<int>(linearization->slot_of.size()) != snapshot.numKeyframes() ||
+       linearization->keyframes != snapshot.graphKeyframes()))
+    throw std::invalid_argument("the given linearization is not that of this snapshot (" +
                                 snapshot.source + "): its keyframes differ");
-  m.ne = handed ? *so.linearization : linearizeDba(snapshot, options, so.depth_variances);
+  m.ne = linearization ? *linearization : linearizeDba(snapshot, options, so.depth_variances);
   const auto t1 = Clock::now();
   // Values that pass validation can still overflow double precision in the factor (e.g. a
   // principal point of 1e154): refuse before the solver turns them into NaN covariances.
@@ -114,16 +123,16 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   m.gauge = makeGauge(options.gauge, snapshot, m.ne.keyframes);
   checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
   // The reduced system lives only until it is factorized (it is as large as S).
-  Eigen::SparseMatrix<double> S_reduced = m.gauge.dim() > 0 && !so.reduced_covariance
+  Eigen::SparseMatrix<double> S_reduced = m.gauge.dim() > 0 && !reduced_covariance
                                               ? reduceSystem(m.ne.S, m.gauge)
                                               : Eigen::SparseMatrix<double>();
   const auto t2 = Clock::now();
   m.T_wc.assign(snapshot.numKeyframes(), Eigen::Isometry3d::Identity());
   for (int k : m.ne.keyframes) m.T_wc[k] = snapshot.T_wc(k);
 
-  if (so.reduced_covariance) {
-    // A given covariance (self-calibration's sandwich) instead of S⁻¹.
-    m.solver = makeGivenMarginalSolver(*so.reduced_covariance, m.gauge.dim());
+  if (reduced_covariance) {
+    // A given covariance (the self-calibration's) instead of S⁻¹.
+    m.solver = makeGivenMarginalSolver(*reduced_covariance, m.gauge.dim());
   } else {
     switch (so.kind) {
       case SolverKind::Sparse:
@@ -137,7 +146,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   try {
     // A gauge that fixes every keyframe (two keyframes, hard two-pose gauge) leaves nothing free:
     // every covariance is zero and there is nothing to factorize.
-    if (m.gauge.dim() > 0 && !so.reduced_covariance) m.solver->factorize(S_reduced);
+    if (m.gauge.dim() > 0 && !reduced_covariance) m.solver->factorize(S_reduced);
     S_reduced = Eigen::SparseMatrix<double>();
   } catch (const FactorizationError& e) {
     std::vector<int> kf;
@@ -158,6 +167,7 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   sum.free_dof = m.gauge.dim();
   sum.factor_entries = m.gauge.dim() > 0 ? m.solver->factorEntries() : 0;
   sum.linearization = m.ne.stats;
+  if (given) sum.self_calibration = given->calibration;
   sum.seconds_linearize = seconds(t0, t1);
   sum.seconds_gauge = seconds(t1, t2);
   sum.seconds_factorize = seconds(t2, t3);
@@ -269,10 +279,6 @@ const LinearizationStats& DbaCovariance::stats() const {
 
 const CovarianceSummary& DbaCovariance::summary() const {
   return impl_->summary;
-}
-
-void DbaCovariance::setSelfCalibrationSummary(SelfCalibrationSummary calibration) {
-  impl_->summary.self_calibration = std::move(calibration);
 }
 
 }  // namespace dbacov

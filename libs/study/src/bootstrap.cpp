@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@
 #include "dbacov/core/nuisance_basis.h"
 #include "dbacov/core/parallel.h"
 #include "dbacov/core/se3.h"
+#include "dbacov/core/self_calibration_fit.h"
 
 namespace dbacov {
 
@@ -31,7 +33,7 @@ namespace {
 Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolverOptions& solver,
                           const SelfCalibration& cal, const NuisanceBasis& basis,
                           const std::vector<int>& keyframes, const SelfCalibrationOptions& opts,
-                          unsigned long long seed) {
+                          BootstrapResampling resampling, unsigned long long seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01;
   Snapshot b = s;
@@ -40,7 +42,7 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
   const double sd[2] = {cal.nuisance_sigma, cal.nuisance_fine_sigma};
   std::vector<int> index(na);
   std::vector<double> value(na), field(2 * mb);
-  const bool wild = opts.bootstrap_resampling == BootstrapResampling::Wild;
+  const bool wild = resampling == BootstrapResampling::Wild;
   std::bernoulli_distribution sign(0.5);
   struct Row {
     std::size_t at;  ///< index into target
@@ -126,7 +128,7 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
   // state) relative to the replicate's estimate, in the replicate's tangent, against the
   // covariance the method reports on the replicate.
   SelfCalibrationOptions nc = opts;
-  nc.method = SelfCalibrationMethod::Nuisance;
+  nc.depth_noise = false;  // the fitted model's own covariance (the bootstrap measures the rest)
   SelfCalibration rc;
   GaugeParameterization gb;
   try {
@@ -135,7 +137,7 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
   } catch (const NumericalError&) {
     return {};  // counted as a failed replicate
   }
-  if (!rc.reduced_covariance || rc.reduced_covariance->rows() != gb.dim()) return {};
+  if (!rc.fit || rc.fit->reduced_covariance->rows() != gb.dim()) return {};
   Eigen::VectorXd delta(gb.dim());
   for (std::size_t a = 0; a < keyframes.size(); ++a) {
     const int dim = gb.dimOf(static_cast<int>(a));
@@ -144,7 +146,7 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
     delta.segment(gb.offset[a], dim) = gb.basis[a].colPivHouseholderQr().solve(xi);
   }
   // The joint NEES and each keyframe's marginal NEES.
-  const Eigen::MatrixXd& Vb = *rc.reduced_covariance;
+  const Eigen::MatrixXd& Vb = *rc.fit->reduced_covariance;
   const Eigen::LLT<Eigen::MatrixXd> llt(Vb);
   if (llt.info() != Eigen::Success) return {};
   Eigen::VectorXd out(keyframes.size() + 1);
@@ -161,21 +163,28 @@ Eigen::VectorXd replicate(const Snapshot& s, const DbaOptions& o, const DbaSolve
 
 }  // namespace
 
-SelfCalibration runSelfCalibration(const Snapshot& s, const DbaOptions& o,
-                                   const SelfCalibrationOptions& c,
-                                   const DbaSolverOptions& solver) {
-  if (c.method != SelfCalibrationMethod::Bootstrap) return selfCalibrate(s, o, c);
+void BootstrapOptions::validate() const {
+  if (replicates < 4) throw std::invalid_argument("bootstrap replicates must be >= 4");
+}
+
+BootstrapCalibration bootstrapSelfCalibration(const Snapshot& s, const DbaOptions& o,
+                                              const SelfCalibrationOptions& c,
+                                              const BootstrapOptions& bo,
+                                              const DbaSolverOptions& solver) {
   c.validate();
+  bo.validate();
   solver.validate();
   SelfCalibrationOptions nuisance = c;
-  nuisance.method = SelfCalibrationMethod::Nuisance;
-  SelfCalibration cal = selfCalibrate(s, o, nuisance);
-  cal.method = SelfCalibrationMethod::Bootstrap;
+  nuisance.depth_noise = false;
+  BootstrapCalibration out;
+  out.calibration = selfCalibrate(s, o, nuisance);
+  SelfCalibration& cal = out.calibration;
+  cal.method = "bootstrap";
   const std::vector<int> keyframes = s.graphKeyframes();
   const GaugeParameterization gauge = makeGauge(o.gauge, s, keyframes);
   const int K = gauge.dim();
-  if (K == 0 || !cal.reduced_covariance) return cal;
-  const Eigen::MatrixXd& V = *cal.reduced_covariance;
+  if (K == 0 || !cal.fit) return out;
+  const Eigen::MatrixXd& V = *cal.fit->reduced_covariance;
   const Eigen::LLT<Eigen::MatrixXd> llt(V);
   if (llt.info() != Eigen::Success || V.rows() != K)
     // (no source prefix here or below: the callers name the snapshot)
@@ -184,12 +193,12 @@ SelfCalibration runSelfCalibration(const Snapshot& s, const DbaOptions& o,
         "(bootstrap self-calibration)",
         keyframes);
   const NuisanceBasis basis{c.nuisance_nodes, s.H, s.W};
-  const int R = c.bootstrap_replicates;
+  const int R = bo.replicates;
   std::vector<Eigen::VectorXd> delta(R);
   parallelFor(static_cast<std::size_t>(R), [&](std::size_t r) {
     // Each replicate its own stream (splitmix-style spread of the seed).
-    const unsigned long long seed = c.bootstrap_seed * 0x9E3779B97F4A7C15ull + r + 1;
-    delta[r] = replicate(s, o, solver, cal, basis, keyframes, c, seed);
+    const unsigned long long seed = bo.seed * 0x9E3779B97F4A7C15ull + r + 1;
+    delta[r] = replicate(s, o, solver, cal, basis, keyframes, nuisance, bo.resampling, seed);
   });
   // Per keyframe (slot a with m_a free coordinates): k_a = Σ_b NEES_b,a / (R m_a), the scale of
   // its marginal; the joint k over all K coordinates for the summary.
@@ -203,26 +212,28 @@ SelfCalibration runSelfCalibration(const Snapshot& s, const DbaOptions& o,
     sum += d[0];
     sum_a += d.tail(n);
   }
-  cal.bootstrap_replicates = ok;
-  cal.bootstrap_failed = R - ok;
+  out.replicates = ok;
+  out.failed = R - ok;
   if (2 * ok < R)
     throw NumericalError("the bootstrap self-calibration's DBA solve converged for " +
                              std::to_string(ok) + " of " + std::to_string(R) + " replicates",
                          keyframes);
-  cal.bootstrap_scale = sum / (static_cast<double>(ok) * K);
+  out.scale = sum / (static_cast<double>(ok) * K);
   // V' = D^½ V D^½, D = k_a on slot a's coordinates: each marginal scaled by its own k_a, the
   // correlations kept.
   Eigen::VectorXd root(K);
-  cal.bootstrap_keyframe_scales.assign(n, 1.0);
+  out.keyframe_scales.assign(n, 1.0);
   for (int a = 0; a < n; ++a) {
     const int m = gauge.dimOf(a);
     if (m == 0) continue;
-    cal.bootstrap_keyframe_scales[a] = sum_a[a] / (static_cast<double>(ok) * m);
-    root.segment(gauge.offset[a], m).setConstant(std::sqrt(cal.bootstrap_keyframe_scales[a]));
+    out.keyframe_scales[a] = sum_a[a] / (static_cast<double>(ok) * m);
+    root.segment(gauge.offset[a], m).setConstant(std::sqrt(out.keyframe_scales[a]));
   }
-  cal.reduced_covariance =
+  auto fit = std::make_shared<SelfCalibrationFit>(*cal.fit);
+  fit->reduced_covariance =
       std::make_shared<const Eigen::MatrixXd>(root.asDiagonal() * V * root.asDiagonal());
-  return cal;
+  cal.fit = std::move(fit);
+  return out;
 }
 
 }  // namespace dbacov

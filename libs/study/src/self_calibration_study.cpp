@@ -1,17 +1,19 @@
 // Self-calibration study (docs/studies/self-calibration.md): noise sources × {raw, calibrated
-// against ground truth, each self-calibration method}, Monte Carlo over held-out runs.
+// against ground truth, the product's self-calibration and its variants, the bootstrap}, Monte
+// Carlo over held-out runs.
 //
-//   build/bin/self_calibration_study [--help] [--runs N] [--calibration-runs M] [--first-run R]
-//                                    [--sources a,b,...] [--methods raw,gt,vce,...]
+//   build-study/bin/self_calibration_study [--help] [--runs N] [--calibration-runs M]
+//       [--first-run R] [--sources a,b,...] [--methods raw,gt,nuisance,...]
 //
 // Scene: explore-and-return in the box room, 13 keyframes, 24×32 grid, one whole-trajectory
 // snapshot per run, DBA solved to the optimum, first two keyframes held at the truth, weight
 // scale 100 (the test bed); `lowsnr` is the default scenario (48×64, sliding window of 8,
 // weight scale 4). "gt" fits one variance factor k = Σ NEES / Σ DoF (absolute samples) on the
 // calibration runs (as dba-evaluate --calibrate) and applies it to the held-out runs. Runs used:
-// calibration [R, R+M), evaluation [R+M, R+M+N). Method suffixes: -g<G> (nuisance's spline
-// nodes), -it<N> (passes), -cov (score's covariance metric), -wild (the bootstrap's wild
-// resampling), -d0 (without the depths' second-order noise term, on by default), -solved (the
+// calibration [R, R+M), evaluation [R+M, R+M+N). Methods: nuisance (the product's) and bootstrap
+// (dbacov/study/bootstrap.h). Suffixes: -g<G> (the spline nodes), -wild (the bootstrap's wild
+// resampling), -k0 (the depths' term without its fourth-cumulant share), -d0 (without the depths'
+// second-order noise term, on by default), -solved (the
 // state re-solved at the claimed weights first, as DROID solves: solveDba), -calsolved (solved at
 // the calibrated weights of the depth-only factors first: solveDbaAtCalibratedWeights, as
 // --self-calibrate --converge). Without either the state is the scenario's, the optimum of the
@@ -169,7 +171,9 @@ struct Row {
 struct MethodSpec {
   enum class State { Scenario, Solved, CalSolved } state = State::Scenario;
   bool covariance_only = false;  ///< raw or gt (gt: the raw covariances, scaled by k)
+  bool bootstrap = false;
   SelfCalibrationOptions options;
+  BootstrapOptions bootstrap_options;
 };
 
 /// Throws std::invalid_argument naming the entry when it is not one.
@@ -195,15 +199,12 @@ MethodSpec parseMethod(const std::string& entry) {
     return spec;
   }
   SelfCalibrationOptions& c = spec.options;
-  // "-cov": the score statistic in the covariance metric; "-wild": the bootstrap's wild
-  // resampling; "-k0": the depths' term without its fourth-cumulant share; "-d0": without the
-  // depths' second-order noise term (on by default).
-  if (take("-cov")) c.score_metric = ScoreMetric::Covariance;
-  if (take("-wild")) c.bootstrap_resampling = BootstrapResampling::Wild;
+  // "-wild": the bootstrap's wild resampling; "-k0": the depths' term without its
+  // fourth-cumulant share; "-d0": without the depths' second-order noise term (on by default).
+  if (take("-wild")) spec.bootstrap_options.resampling = BootstrapResampling::Wild;
   if (take("-k0")) c.depth_noise_kurtosis = false;
   if (take("-d0")) c.depth_noise = false;
-  // "-g<G>": nuisance with the affine field + a G × G tent spline (G = 0: affine only);
-  // "-it<N>": passes. Last in the name, one integer each.
+  // "-g<G>": the affine field + a G × G tent spline (G = 0: affine only). Last in the name.
   const auto number = [&](const std::string& suffix, int* out) {
     const std::size_t at = name.find(suffix);
     if (at == std::string::npos) return;
@@ -218,9 +219,14 @@ MethodSpec parseMethod(const std::string& entry) {
       throw std::invalid_argument(entry + ": '" + suffix + digits + "' needs an integer");
     name.erase(at);
   };
-  number("-it", &c.iterations);
   number("-g", &c.nuisance_nodes);
-  c.method = parseSelfCalibrationMethod(name);  // names the known methods when it is none
+  if (name == "bootstrap")
+    spec.bootstrap = true;
+  else if (name != "nuisance")
+    throw std::invalid_argument(entry + ": unknown method '" + name +
+                                "', expected raw, gt, nuisance or bootstrap (the methods that "
+                                "lost, vce, autocorr, score and sandwich, are in the history: "
+                                "docs/studies/self-calibration.md)");
   c.validate();
   return spec;
 }
@@ -228,14 +234,15 @@ MethodSpec parseMethod(const std::string& entry) {
 static int study(int argc, char** argv) {
   int runs = 20, calibration_runs = 10, first_run = 1000;
   std::string sources_arg = "white,white2x,wrongscale,field,affine,affine+outliers",
-              methods_arg = "raw,gt,vce,autocorr,score,sandwich,nuisance";
+              methods_arg = "raw,gt,nuisance";
   std::string source_names;
   for (const Source& src : allSources())
     source_names += (source_names.empty() ? "" : ", ") + src.name;
   CLI::App cli{
       "Self-calibration study (docs/studies/self-calibration.md): noise sources x {raw, calibrated "
-      "against ground truth (gt), each self-calibration method}, Monte Carlo over held-out runs; "
-      "prints one Markdown table row per (source, method).",
+      "against ground truth (gt), the self-calibration (nuisance) and its variants, the "
+      "bootstrap}, Monte Carlo over held-out runs; prints one Markdown table row per (source, "
+      "method).",
       "self_calibration_study"};
   cli.add_option("--runs", runs, "held-out (evaluation) runs per source")
       ->check(CLI::Range(1, 100000))
@@ -250,9 +257,8 @@ static int study(int argc, char** argv) {
   cli.add_option("--sources", sources_arg, "comma-separated, of: " + source_names)
       ->capture_default_str();
   cli.add_option("--methods", methods_arg,
-                 "comma-separated: raw, gt, or a method (score, vce, autocorr, sandwich, nuisance, "
-                 "bootstrap) with suffixes -g<G>, -it<N>, -cov, -wild, -k0, -d0, -solved, "
-                 "-calsolved (see the source's header)")
+                 "comma-separated: raw, gt, nuisance or bootstrap, with suffixes -g<G>, -wild, "
+                 "-k0, -d0, -solved, -calsolved (see the source's header)")
       ->capture_default_str();
   try {
     cli.parse(argc, argv);
@@ -326,13 +332,15 @@ static int study(int argc, char** argv) {
           } catch (const std::exception& e) {
             throw std::runtime_error(snap.snapshot.name() + ": " + m + ": " + e.what());
           }
-          // The bootstrap re-solves (dbacov_study); the other methods are the engine's.
+          // The bootstrap re-solves (dbacov_study); nuisance is the product's pipeline.
           const sim::CovarianceFunction covariance =
               spec.covariance_only ? sim::pipelineCovariance(nullptr)
-              : spec.options.method == SelfCalibrationMethod::Bootstrap
+              : spec.bootstrap
                   ? sim::CovarianceFunction([&spec](const Snapshot& s, const DbaOptions& opt) {
-                      return selfCalibratedCovariance(s, opt, {},
-                                                      runSelfCalibration(s, opt, spec.options));
+                      return selfCalibratedCovariance(
+                          s, opt, {},
+                          bootstrapSelfCalibration(s, opt, spec.options, spec.bootstrap_options)
+                              .calibration);
                     })
                   : sim::pipelineCovariance(&spec.options);
           x = sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive, covariance);

@@ -37,7 +37,7 @@
 namespace dbacov {
 
 /// The depth-only factors' variance factors relative to the flow's, from a self-calibration of
-/// the snapshot (any method: the vce scales of its first pass).
+/// the snapshot (its white variance components: q / ρ per edge, without the field).
 struct DepthOnlyRatios {
   /// Σ q / Σ redundancy over the flow edges (i ≠ j) at the snapshot's weights; 1 when they have
   /// no redundancy.
@@ -88,8 +88,8 @@ inline constexpr int kCalibratedMaxSolves = 8;
 inline constexpr double kCalibratedRatioTolerance = 0.02;
 
 /// Solves `snapshot` (its state and, for stereo edges, its weights are overwritten) as above.
-/// Throws what solveDba and selfCalibrate throw, and std::invalid_argument for max_solves < 1 or a
-/// tolerance not in (0, 1).
+/// Throws what solveDba and the self-calibration throw, and std::invalid_argument for max_solves <
+/// 1 or a tolerance not in (0, 1).
 CalibratedSolve solveDbaAtCalibratedWeights(Snapshot& snapshot, const DbaOptions& options,
                                             int max_solves = kCalibratedMaxSolves,
                                             double tolerance = kCalibratedRatioTolerance,

@@ -27,6 +27,10 @@
 
 namespace dbacov {
 
+namespace detail {
+struct GivenModel;  // a covariance computed outside the engine (self-calibration; internal)
+}
+
 class DbaCovariance {
  public:
   /// Validates the options (std::invalid_argument), linearizes,
@@ -67,11 +71,11 @@ class DbaCovariance {
   const LinearizationStats& stats() const;
   /// What the computation did: solver, ordering, nnz(L), pixels, time per stage.
   const CovarianceSummary& summary() const;
-  /// Records in summary() the self-calibration whose result this covariance is
-  /// (selfCalibratedCovariance() calls it).
-  void setSelfCalibrationSummary(SelfCalibrationSummary calibration);
 
  private:
+  friend struct detail::GivenModel;
+  DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
+                const CovarianceOptions& covariance, const detail::GivenModel* given);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

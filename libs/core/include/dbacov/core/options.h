@@ -5,17 +5,12 @@
 // declared once in libs/app/src/engine_cli.h; the scenario; the Python keywords).
 #pragma once
 
-#include <memory>
 #include <optional>
 #include <string>
-
-#include <Eigen/Core>
 
 #include "dbacov/core/enum_names.h"
 
 namespace dbacov {
-
-struct DbaNormalEquations;  // linearization.h (internal)
 
 /// How the 7-DoF gauge of monocular DBA (6 pose + scale) is fixed (conventions §4).
 struct GaugeOptions {
@@ -119,13 +114,6 @@ struct CovarianceOptions {
   /// Keep the depth terms of the linearization so that inverseDepthSigma() can answer (costs
   /// 6·(1 + targets) doubles per pixel of every source keyframe).
   bool depth_variances = false;
-  /// When set, Σ in the gauge's reduced coordinates (K×K, K = free pose DoF) replaces S⁻¹: the
-  /// sandwich of self_calibration.h. Linearization and gauge are still those of the snapshot.
-  std::shared_ptr<const Eigen::MatrixXd> reduced_covariance;
-  /// When set, the linearization of this snapshot under these DbaOptions (without depth terms),
-  /// which the constructor then does not repeat: the self-calibration's own, handed over by
-  /// selfCalibratedCovariance. Ignored with depth_variances (those need the depth terms).
-  std::shared_ptr<const DbaNormalEquations> linearization;
 };
 
 template <>

@@ -46,8 +46,8 @@ struct EvaluationSamples {
 using CovarianceFunction = std::function<DbaCovariance(const Snapshot&, const DbaOptions&)>;
 
 /// The product's pipeline (computeCovariance): without `self_calibration` the stated model,
-/// with it the self-calibration it names (any method of self_calibration.h but the bootstrap,
-/// which is the study's: it passes its own CovarianceFunction). The options are copied.
+/// with it the self-calibrated one with these options (the study's bootstrap passes its own
+/// CovarianceFunction). The options are copied.
 CovarianceFunction pipelineCovariance(const SelfCalibrationOptions* self_calibration);
 
 /// The samples of one solved snapshot, covariances computed with `options` (normally the
