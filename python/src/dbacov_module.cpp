@@ -2,11 +2,14 @@
 // project's errors for Python. The pure-Python wrapper (dbacov/__init__.py) adds torch tensors,
 // keyword defaults and dbacov.from_droid.
 //
-// Arrays in: NumPy arrays of the snapshot dtypes (conventions §1) are read in place (pybind11
-// converts only when the dtype or layout differs); the Snapshot then owns one copy of them, as the
-// engine works on its own storage. Arrays out: NumPy arrays owning their data. The GIL is released
-// while the engine computes. InputError → dbacov.InputError (a ValueError), NumericalError →
-// dbacov.NumericalError (an ArithmeticError), std::invalid_argument → ValueError, same messages.
+// Arrays in: any NumPy array (or what np.asarray reads) is viewed in place with the GIL held and
+// converted by the C++ entry snapshotFromArrays (snapshot_arrays.h) without it, refusing what a
+// conversion would change (complex, masks, fractional indices); the Snapshot then owns one copy,
+// as the engine works on its own storage. No Python object is touched without the GIL. Arrays
+// out: NumPy arrays owning their data. The GIL is released while the engine computes, and the
+// engine's loops check for signals (Ctrl-C raises KeyboardInterrupt from inside the call).
+// InputError → dbacov.InputError (a ValueError), NumericalError → dbacov.NumericalError (an
+// ArithmeticError), std::invalid_argument → ValueError, same messages.
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
