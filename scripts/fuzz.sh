@@ -8,7 +8,7 @@
 #            3600). The targets run in parallel, one per core, in waves: each target gets
 #            SECONDS / waves, so 4 targets on 2 cores run in two waves of 30 s each, on 4 cores in
 #            one wave of 60 s (at least 1 s each).
-#   TARGET   npz, rawlog, graph, ground_truth (default all)
+#   TARGET   npz, rawlog, graph, ground_truth, python_snapshot (default all)
 # Builds the fuzzers in $DBACOV_FUZZ_BUILD_DIR (default build-fuzz/; scripts/test.sh passes its
 # sanitizer tree build-asan/), configured by scripts/sanitizer_tree.sh (clang, AddressSanitizer +
 # UndefinedBehaviorSanitizer, -fsanitize=fuzzer), writes the seed corpus into DIR/corpus/<target>/
@@ -23,7 +23,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 [ $# -gt 0 ] && shift
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(npz rawlog graph ground_truth)
+[ ${#targets[@]} -gt 0 ] || targets=(npz rawlog graph ground_truth python_snapshot)
 cores=$(nproc)
 waves=$(( (${#targets[@]} + cores - 1) / cores ))
 per_target=$(( seconds / waves ))

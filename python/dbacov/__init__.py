@@ -20,6 +20,10 @@ C-contiguous, are read in place. Errors are dbacov.InputError (a ValueError) and
 dbacov.NumericalError (an ArithmeticError) with the messages of the command-line tools.
 """
 
+import difflib
+import functools
+import inspect
+import operator
 import os
 
 import numpy as np
@@ -28,41 +32,126 @@ from . import _droid
 from ._dbacov import Covariance as _Covariance
 from ._dbacov import InputError, NumericalError
 from ._dbacov import Snapshot as _Snapshot
-from ._dbacov import _write_pose_rawlog, load
+from ._dbacov import _write_pose_rawlog
+from ._dbacov import check_options as _check_options
+from ._dbacov import load as _load
 
-__all__ = ["load", "Snapshot", "Covariance", "from_droid", "write_pose_rawlog", "InputError",
-           "NumericalError"]
+__all__ = ["load", "Snapshot", "Covariance", "from_droid", "write_pose_rawlog", "check_options",
+           "InputError", "NumericalError"]
 
 _DTYPES = {"poses": np.float64, "disps": np.float32, "intrinsics": np.float64, "ii": np.int64,
            "jj": np.int64, "target": np.float32, "weight": np.float32, "tstamp": np.float64,
            "timestamps_s": np.float64, "disps_sens": np.float32, "stereo_rig": np.float64}
 
+#: Covariance's keywords after the snapshot (dba-covariance's options), in the binding's order.
+COVARIANCE_KEYWORDS = ("preset", "weight_scale", "gauge", "gauge_sigma_rot", "gauge_sigma_trans",
+                       "near", "far", "min_depth_ratio", "sensor_depth_weight", "solver",
+                       "ordering", "threads", "depth_sigma", "stated_model",
+                       "self_calibrate_nodes", "self_calibrate_depth_noise", "converge",
+                       "converge_iterations")
+_WRITE_KEYWORDS = ("emit", "label", "fps", "start_time", "times")
+
+
+def _unknown_keyword(function, given, valid):
+    """TypeError naming the first keyword of `given` not in `valid`, with the valid ones (and the
+    closest, when one is close), instead of Python's or pybind11's generic message."""
+    for key in given:
+        if key not in valid:
+            close = difflib.get_close_matches(key, valid, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise TypeError(f"{function}() got an unknown keyword argument {key!r}{hint}; "
+                            f"valid keywords: {', '.join(valid)}")
+
+
+def _keywords(valid=None):
+    """Decorator: unknown keywords name themselves and the valid ones (the function's own
+    parameters, or `valid` for a function taking **options)."""
+    def wrap(f):
+        names = valid or tuple(n for n, p in inspect.signature(f).parameters.items()
+                               if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY))
+
+        @functools.wraps(f)
+        def checked(*args, **kwargs):
+            _unknown_keyword(f.__name__, kwargs, names)
+            return f(*args, **kwargs)
+        return checked
+    return wrap
+
+
+def _path(path):
+    """A path argument (str, bytes or os.PathLike) as str; a NUL byte is refused by the module."""
+    return os.fsdecode(os.fspath(path))
+
 
 def _array(x, dtype):
-    """A NumPy view of x when it is already of that dtype and C-contiguous, else a converted copy.
-    torch tensors (CPU or CUDA) go through .detach().cpu() (no copy for CPU tensors)."""
+    """A NumPy view of x when it is already of that dtype and C-contiguous, else x as NumPy reads
+    it (np.asarray, no conversion): the module converts it to the snapshot dtype, refusing what
+    would lose information (complex values, fractional indices, masks). torch tensors (CPU or
+    CUDA) go through .detach().cpu() (no copy for CPU tensors); masked arrays are passed as they
+    are, for the module to refuse."""
     if hasattr(x, "detach"):
         x = x.detach().cpu().numpy()
-    return np.ascontiguousarray(x, dtype=dtype)
+    if isinstance(x, np.ma.MaskedArray):
+        return x
+    a = np.asarray(x)
+    return np.ascontiguousarray(a) if a.dtype == dtype else a
 
 
+def _integer(value, name, source):
+    """An integer argument (id, t0): an int, a NumPy/torch integer or 0-d array, or a float of
+    integral value (2.0, as keyframe indices); a fraction is refused, never truncated."""
+    if value is None:
+        return None
+    try:
+        return operator.index(value)
+    except TypeError:
+        pass
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{source}: {name} is {value!r} ({type(value).__name__}), expected an "
+                         "integer") from None
+    if not (np.isfinite(f) and f == int(f)):
+        raise InputError(f"{source}: {name} is {value!r}, not an integer: expected an integer "
+                         "(integral floats such as 2.0 are accepted; a fraction is never "
+                         "rounded)")
+    return int(f)
+
+
+@_keywords()
+def load(path):
+    """Reads one snapshot .npz (conventions §1); errors name the file and the key."""
+    return _load(_path(path))
+
+
+check_options = _keywords(COVARIANCE_KEYWORDS)(_check_options)
+check_options.__doc__ = ("Checks Covariance's keywords without a snapshot (the same checks and "
+                         "messages as Covariance): raises ValueError (an unknown value) or "
+                         "TypeError (an unknown keyword), else returns None. For tools that take "
+                         "the options long before the first snapshot (dbacov_online.py).")
+
+
+@_keywords()
 def Snapshot(*, poses, disps, intrinsics, ii, jj, target, weight, tstamp, timestamps_s=None,
              id=None, disps_sens=None, stereo_rig=None, t0=None, source="<python>"):
     """A snapshot from arrays in the layout of conventions §1 (poses T_cw (N,7), disps (N,H,W),
     intrinsics (4,), ii/jj (E,), target/weight (E,2,H,W) x first, tstamp (N,)); optional
     timestamps_s (N,), id, disps_sens (N,H,W) for RGB-D, stereo_rig (7,) for ii == jj edges,
-    t0 (DROID's first optimized pose). Checked as the file loader checks a .npz."""
+    t0 (DROID's first optimized pose). Checked as the file loader checks a .npz; refused
+    (dbacov.InputError naming the key): masked arrays, complex, boolean or non-numeric dtypes,
+    and ii/jj/id/t0 values that are not integers (integral floats such as 2.0 are accepted)."""
     kw = {k: v for k, v in dict(poses=poses, disps=disps, intrinsics=intrinsics, ii=ii, jj=jj,
                                 target=target, weight=weight, tstamp=tstamp,
                                 timestamps_s=timestamps_s, disps_sens=disps_sens,
                                 stereo_rig=stereo_rig).items() if v is not None}
     arrays = {k: _array(v, _DTYPES[k]) for k, v in kw.items()}
-    if "intrinsics" in arrays:
+    if "intrinsics" in arrays and not isinstance(arrays["intrinsics"], np.ma.MaskedArray):
         arrays["intrinsics"] = arrays["intrinsics"].reshape(-1)
-    return _Snapshot(**arrays, id=None if id is None else int(id),
-                     t0=None if t0 is None else int(t0), source=source)
+    return _Snapshot(**arrays, id=_integer(id, "id", source), t0=_integer(t0, "t0", source),
+                     source=source)
 
 
+@_keywords(("snapshot",) + COVARIANCE_KEYWORDS)
 def Covariance(snapshot, preset="droid", **options):
     """The covariance engine on `snapshot` (a Snapshot or a path). Keywords mirror dba-covariance:
     weight_scale, gauge ("two-pose" | "minimal" | "droid"), gauge_sigma_rot, gauge_sigma_trans,
@@ -87,11 +176,12 @@ def Covariance(snapshot, preset="droid", **options):
     depth_noise_cross_kurtosis (the two flow axes' joint fourth cumulant it used),
     edges: one array per --edge-csv column, field_sigma, field_fine_sigma (px) and field_params);
     None with stated_model=True."""
-    if not isinstance(snapshot, _Snapshot):
-        snapshot = load(str(snapshot))
+    if snapshot is not None and not isinstance(snapshot, _Snapshot):
+        snapshot = load(snapshot)
     return _Covariance(snapshot, preset=preset, **options)
 
 
+@_keywords()
 def write_pose_rawlog(path, covariances, emit="latest", label=None, fps=None,
                       start_time=0.0):
     """dba-covariance -o over several snapshots' covariances (in input order): a gz-compressed
@@ -102,12 +192,13 @@ def write_pose_rawlog(path, covariances, emit="latest", label=None, fps=None,
     same bytes as the command-line tool. Errors: dbacov.InputError with the CLI's messages."""
     if isinstance(covariances, _Covariance):
         covariances = [covariances]
-    _write_pose_rawlog(os.fspath(path), list(covariances), emit=emit, label=label,
+    _write_pose_rawlog(_path(path), list(covariances), emit=emit, label=label,
                        fps=None if fps is None else float(fps), start_time=float(start_time))
 
 
 def _write_pose_rawlog_method(self, path, **options):
-    _write_one(self, os.fspath(path), **options)
+    _unknown_keyword("write_pose_rawlog", options, _WRITE_KEYWORDS)
+    _write_one(self, _path(path), **options)
 
 
 _write_one = _Covariance.write_pose_rawlog
@@ -115,6 +206,7 @@ _write_pose_rawlog_method.__doc__ = _write_one.__doc__
 _Covariance.write_pose_rawlog = _write_pose_rawlog_method  # paths as str or os.PathLike
 
 
+@_keywords()
 def from_droid(video, graph, include_inactive=True, record=None, image_times_s=None,
                stereo_rig=None, snapshot_id=None):
     """The current DBA factor graph of DROID-SLAM (its DepthVideo and FactorGraph, CPU or CUDA
@@ -126,8 +218,7 @@ def from_droid(video, graph, include_inactive=True, record=None, image_times_s=N
                                     stereo_rig=stereo_rig)
     t0 = arrays.pop("t0", None)
     sid = arrays.pop("id", None)
-    return Snapshot(**arrays, id=None if sid is None else int(sid),
-                    t0=None if t0 is None else int(t0), source="<droid>")
+    return Snapshot(**arrays, id=sid, t0=t0, source="<droid>")
 
 
 KeyframeRecord = _droid.KeyframeRecord

@@ -2,11 +2,14 @@
 // project's errors for Python. The pure-Python wrapper (dbacov/__init__.py) adds torch tensors,
 // keyword defaults and dbacov.from_droid.
 //
-// Arrays in: NumPy arrays of the snapshot dtypes (conventions §1) are read in place (pybind11
-// converts only when the dtype or layout differs); the Snapshot then owns one copy of them, as the
-// engine works on its own storage. Arrays out: NumPy arrays owning their data. The GIL is released
-// while the engine computes. InputError → dbacov.InputError (a ValueError), NumericalError →
-// dbacov.NumericalError (an ArithmeticError), std::invalid_argument → ValueError, same messages.
+// Arrays in: any NumPy array (or what np.asarray reads) is viewed in place with the GIL held and
+// converted by the C++ entry snapshotFromArrays (snapshot_arrays.h) without it, refusing what a
+// conversion would change (complex, masks, fractional indices); the Snapshot then owns one copy,
+// as the engine works on its own storage. No Python object is touched without the GIL. Arrays
+// out: NumPy arrays owning their data. The GIL is released while the engine computes, and the
+// engine's loops check for signals (Ctrl-C raises KeyboardInterrupt from inside the call).
+// InputError → dbacov.InputError (a ValueError), NumericalError → dbacov.NumericalError (an
+// ArithmeticError), std::invalid_argument → ValueError, same messages.
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -16,6 +19,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "dbacov/app/covariance_app.h"
 #include "dbacov/app/outputs.h"
@@ -28,6 +32,7 @@
 #include "dbacov/core/snapshot.h"
 #include "dbacov/core/threads.h"
 #include "dbacov/io/snapshot_npz.h"
+#include "snapshot_arrays.h"
 
 namespace py = pybind11;
 using namespace dbacov;
@@ -35,75 +40,90 @@ using dbacov::app::SelfCalibrationAppOptions;
 
 namespace {
 
-template <typename T>
-using CArray = py::array_t<T, py::array::c_style | py::array::forcecast>;
-
-template <typename T>
-std::vector<T> toVector(const CArray<T>& a) {
-  return std::vector<T>(a.data(), a.data() + a.size());
-}
-
-std::string shapeOf(const py::array& a) {
-  std::string s = "(";
-  for (py::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? "," : "") + std::to_string(a.shape(k));
-  return s + (a.ndim() == 1 ? ",)" : ")");
-}
-
-void expectNdim(const py::array& a, int ndim, const char* key, const char* expected) {
-  if (a.ndim() != ndim)
-    throw InputError(std::string("<python>: key '") + key + "' has shape " + shapeOf(a) +
-                     ", expected " + expected);
-}
-
-Snapshot makeSnapshot(const CArray<double>& poses, const CArray<float>& disps,
-                      const CArray<double>& intrinsics, const CArray<std::int64_t>& ii,
-                      const CArray<std::int64_t>& jj, const CArray<float>& target,
-                      const CArray<float>& weight, const CArray<double>& tstamp,
-                      std::optional<CArray<double>> timestamps_s, std::optional<std::int64_t> id,
-                      std::optional<CArray<float>> disps_sens,
-                      std::optional<CArray<double>> stereo_rig, std::optional<std::int64_t> t0,
-                      const std::string& source) {
-  expectNdim(poses, 2, "poses", "(N,7)");
-  expectNdim(disps, 3, "disps", "(N,H,W)");
-  if (poses.shape(1) != 7)
-    throw InputError(source + ": key 'poses' has shape " + shapeOf(poses) + ", expected (N,7)");
-  Snapshot s;
-  s.source = source;
-  s.id = id;
-  s.H = static_cast<int>(disps.shape(1));
-  s.W = static_cast<int>(disps.shape(2));
-  s.poses_cw.resize(poses.shape(0), 7);
-  std::copy(poses.data(), poses.data() + poses.size(), s.poses_cw.data());
-  s.disps = toVector(disps);
-  if (intrinsics.size() != 4)
-    throw InputError(source + ": key 'intrinsics' has shape " + shapeOf(intrinsics) +
-                     ", expected (4,)");
-  s.intrinsics = Eigen::Map<const Eigen::Vector4d>(intrinsics.data());
-  s.ii = toVector(ii);
-  s.jj = toVector(jj);
-  s.target = toVector(target);
-  s.weight = toVector(weight);
-  s.tstamp = toVector(tstamp);
-  if (timestamps_s) s.timestamps_s = toVector(*timestamps_s);
-  if (disps_sens) s.disps_sens = toVector(*disps_sens);
-  if (stereo_rig) {
-    if (stereo_rig->size() != 7)
-      throw InputError(source + ": key 'stereo_rig' has shape " + shapeOf(*stereo_rig) +
-                       ", expected (7,)");
-    s.stereo_rig = Eigen::Map<const Eigen::Matrix<double, 7, 1>>(stereo_rig->data());
+/// An array argument as the C++ entry reads it (snapshot_arrays.h), taken with the GIL held:
+/// anything NumPy can read as an array (np.asarray), C-contiguous and in native byte order; the
+/// array is kept in `keep` (alive until the snapshot is built). A masked array is passed on as
+/// such, for the entry to refuse.
+python::ArrayView viewOf(const py::handle& x, const char* key, const std::string& source,
+                         std::vector<py::array>& keep) {
+  python::ArrayView v;
+  const py::module_ np = py::module_::import("numpy");
+  if (py::isinstance(x, py::module_::import("numpy.ma").attr("MaskedArray"))) {
+    v.masked = true;
+    return v;
   }
-  s.t0 = t0;
-  // The flat sizes are checked by validate(); the plane shapes here, with the key's name.
-  const auto E = static_cast<py::ssize_t>(s.ii.size());
-  for (const auto& [key, a] :
-       {std::pair<const char*, const CArray<float>*>{"target", &target}, {"weight", &weight}})
-    if (a->ndim() != 4 || a->shape(0) != E || a->shape(1) != 2 || a->shape(2) != s.H ||
-        a->shape(3) != s.W)
-      throw InputError(source + ": key '" + key + "' has shape " + shapeOf(*a) + ", expected (" +
-                       std::to_string(E) + ",2," + std::to_string(s.H) + "," + std::to_string(s.W) +
-                       ") (E,2,H,W)");
-  s.validate();
+  py::array a;
+  try {
+    a = np.attr("asarray")(x);
+    if (!a.dtype().attr("isnative").cast<bool>())
+      a = a.attr("astype")(a.dtype().attr("newbyteorder")("="));
+    a = np.attr("ascontiguousarray")(a);
+  } catch (py::error_already_set& e) {
+    throw InputError(source + ": key '" + key + "' is not an array (" +
+                     py::str(py::type::handle_of(x).attr("__name__")).cast<std::string>() +
+                     "): " + e.what());
+  }
+  v.kind = a.dtype().kind();
+  v.itemsize = static_cast<int>(a.itemsize());
+  v.dtype = py::str(a.dtype()).cast<std::string>();
+  for (py::ssize_t k = 0; k < a.ndim(); ++k) v.shape.push_back(a.shape(k));
+  v.data = a.data();
+  keep.push_back(std::move(a));
+  return v;
+}
+
+/// Snapshot(...): the views with the GIL, then the entry without it. Every Python object (the
+/// arrays in `keep`, the arguments) is released by the caller, with the GIL held.
+std::shared_ptr<Snapshot> makeSnapshot(const py::object& poses, const py::object& disps,
+                                       const py::object& intrinsics, const py::object& ii,
+                                       const py::object& jj, const py::object& target,
+                                       const py::object& weight, const py::object& tstamp,
+                                       const py::object& timestamps_s,
+                                       std::optional<std::int64_t> id, const py::object& disps_sens,
+                                       const py::object& stereo_rig, std::optional<std::int64_t> t0,
+                                       const std::string& source) {
+  std::vector<py::array> keep;
+  python::SnapshotArrays in;
+  in.source = source;
+  in.poses = viewOf(poses, "poses", source, keep);
+  in.disps = viewOf(disps, "disps", source, keep);
+  in.intrinsics = viewOf(intrinsics, "intrinsics", source, keep);
+  in.ii = viewOf(ii, "ii", source, keep);
+  in.jj = viewOf(jj, "jj", source, keep);
+  in.target = viewOf(target, "target", source, keep);
+  in.weight = viewOf(weight, "weight", source, keep);
+  in.tstamp = viewOf(tstamp, "tstamp", source, keep);
+  if (!timestamps_s.is_none()) in.timestamps_s = viewOf(timestamps_s, "timestamps_s", source, keep);
+  if (!disps_sens.is_none()) in.disps_sens = viewOf(disps_sens, "disps_sens", source, keep);
+  if (!stereo_rig.is_none()) in.stereo_rig = viewOf(stereo_rig, "stereo_rig", source, keep);
+  in.id = id;
+  in.t0 = t0;
+  std::shared_ptr<Snapshot> s;
+  {
+    py::gil_scoped_release release;
+    s = std::make_shared<Snapshot>(python::snapshotFromArrays(in));
+  }
   return s;
+}
+
+/// A signal handler raised (Ctrl-C: KeyboardInterrupt); the Python error is pending.
+struct Interrupted {};
+
+/// Runs f() without the GIL; the engine's parallel loops check for signals on the way (with the
+/// GIL, at most every 20 ms), and a handler's exception (KeyboardInterrupt) stops the
+/// computation and is raised here.
+template <typename F>
+auto interruptible(F&& f) -> decltype(f()) {
+  try {
+    py::gil_scoped_release release;
+    const ScopedInterruptCheck check([] {
+      py::gil_scoped_acquire gil;
+      if (PyErr_CheckSignals() != 0) throw Interrupted{};
+    });
+    return f();
+  } catch (const Interrupted&) {
+    throw py::error_already_set();
+  }
 }
 
 py::array_t<double> matrix(const Eigen::MatrixXd& m) {
@@ -228,6 +248,7 @@ void writePoseRawlog(const std::string& path, const std::vector<const PyCovarian
                      const std::vector<std::optional<std::vector<double>>>& times,
                      const std::string& emit, const std::optional<std::string>& label,
                      std::optional<double> fps, double start_time) {
+  python::checkPath(path, "path");
   if (covs.empty())  // an empty rawlog would replace whatever the path holds
     throw InputError(path + ": no covariances to write (the file is left as it is)");
   for (std::size_t c = 0; c < covs.size(); ++c)
@@ -297,6 +318,30 @@ CovarianceOptions solverOptions(const std::string& solver, const std::string& or
   return so;
 }
 
+/// Covariance(...)'s keywords, resolved and checked (also without a snapshot: check_options).
+struct CovarianceKeywords {
+  DbaOptions engine;
+  CovarianceOptions solver;
+  SelfCalibrationAppOptions calibration;
+};
+
+CovarianceKeywords resolveKeywords(
+    const std::string& preset, std::optional<double> weight_scale, std::optional<std::string> gauge,
+    std::optional<double> gauge_sigma_rot, std::optional<double> gauge_sigma_trans,
+    std::optional<double> near, std::optional<double> far, std::optional<double> min_depth_ratio,
+    std::optional<double> sensor_depth_weight, const std::string& solver,
+    const std::string& ordering, bool depth_sigma, bool stated_model,
+    std::optional<int> self_calibrate_nodes, std::optional<bool> self_calibrate_depth_noise,
+    bool converge, std::optional<int> converge_iterations) {
+  CovarianceKeywords k;
+  k.engine = engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans, near,
+                           far, min_depth_ratio, sensor_depth_weight);
+  k.solver = solverOptions(solver, ordering, depth_sigma);
+  k.calibration = selfCalibrationOptions(stated_model, self_calibrate_nodes,
+                                         self_calibrate_depth_noise, converge, converge_iterations);
+  return k;
+}
+
 void checkKeyframe(const PyCovariance& c, int k) {
   if (!c.cov->contains(k))
     throw py::key_error("keyframe " + std::to_string(k) +
@@ -326,7 +371,7 @@ PYBIND11_MODULE(_dbacov, m) {
            py::arg("weight"), py::arg("tstamp"), py::arg("timestamps_s") = py::none(),
            py::arg("id") = py::none(), py::arg("disps_sens") = py::none(),
            py::arg("stereo_rig") = py::none(), py::arg("t0") = py::none(),
-           py::arg("source") = "<python>", py::call_guard<py::gil_scoped_release>())
+           py::arg("source") = "<python>")
       .def_readonly("source", &Snapshot::source)
       .def_readonly("id", &Snapshot::id)
       .def_readonly("t0", &Snapshot::t0)
@@ -349,6 +394,7 @@ PYBIND11_MODULE(_dbacov, m) {
       .def(
           "save",
           [](const Snapshot& s, const std::string& path, bool compressed) {
+            python::checkPath(path, "path");
             io::saveSnapshotNpz(path, s, compressed);
           },
           py::arg("path"), py::arg("compressed") = true, py::call_guard<py::gil_scoped_release>())
@@ -361,6 +407,7 @@ PYBIND11_MODULE(_dbacov, m) {
   m.def(
       "load",
       [](const std::string& path) {
+        python::checkPath(path, "path");
         return std::make_shared<Snapshot>(io::loadSnapshotNpz(path, 0));
       },
       py::arg("path"), py::call_guard<py::gil_scoped_release>(),
@@ -398,6 +445,33 @@ PYBIND11_MODULE(_dbacov, m) {
       py::arg("path"), py::arg("covariances"), py::kw_only(), py::arg("emit") = "latest",
       py::arg("label") = py::none(), py::arg("fps") = py::none(), py::arg("start_time") = 0.0);
   m.def("_mrpt_bridge_loaded", &mrpt_bridge::mrptBridgeLoaded);
+  m.def(
+      "check_options",
+      [](const std::string& preset, std::optional<double> weight_scale,
+         std::optional<std::string> gauge, std::optional<double> gauge_sigma_rot,
+         std::optional<double> gauge_sigma_trans, std::optional<double> near,
+         std::optional<double> far, std::optional<double> min_depth_ratio,
+         std::optional<double> sensor_depth_weight, const std::string& solver,
+         const std::string& ordering, std::size_t threads, bool depth_sigma, bool stated_model,
+         std::optional<int> self_calibrate_nodes, std::optional<bool> self_calibrate_depth_noise,
+         bool converge, std::optional<int> converge_iterations) {
+        static_cast<void>(threads);
+        resolveKeywords(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans, near, far,
+                        min_depth_ratio, sensor_depth_weight, solver, ordering, depth_sigma,
+                        stated_model, self_calibrate_nodes, self_calibrate_depth_noise, converge,
+                        converge_iterations);
+      },
+      py::kw_only(), py::arg("preset") = "droid", py::arg("weight_scale") = py::none(),
+      py::arg("gauge") = py::none(), py::arg("gauge_sigma_rot") = py::none(),
+      py::arg("gauge_sigma_trans") = py::none(), py::arg("near") = py::none(),
+      py::arg("far") = py::none(), py::arg("min_depth_ratio") = py::none(),
+      py::arg("sensor_depth_weight") = py::none(), py::arg("solver") = "sparse",
+      py::arg("ordering") = "auto", py::arg("threads") = 0, py::arg("depth_sigma") = true,
+      py::arg("stated_model") = false, py::arg("self_calibrate_nodes") = py::none(),
+      py::arg("self_calibrate_depth_noise") = py::none(), py::arg("converge") = false,
+      py::arg("converge_iterations") = py::none(),
+      "Checks Covariance's keywords without a snapshot (the same checks and messages): raises "
+      "ValueError on a bad value, returns None");
 
   covariance
       .def(py::init([](std::shared_ptr<Snapshot> snap, const std::string& preset,
@@ -410,32 +484,35 @@ PYBIND11_MODULE(_dbacov, m) {
                        bool stated_model, std::optional<int> self_calibrate_nodes,
                        std::optional<bool> self_calibrate_depth_noise, bool converge,
                        std::optional<int> converge_iterations) {
+             if (!snap)  // pybind11 turns None into a null pointer
+               throw py::type_error("snapshot is None, expected a dbacov.Snapshot or a path");
              auto c = std::make_unique<PyCovariance>();
-             const DbaOptions engine =
-                 engineOptions(preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans,
-                               near, far, min_depth_ratio, sensor_depth_weight);
-             const CovarianceOptions so = solverOptions(solver, ordering, depth_sigma);
-             const SelfCalibrationAppOptions sc =
-                 selfCalibrationOptions(stated_model, self_calibrate_nodes,
-                                        self_calibrate_depth_noise, converge, converge_iterations);
+             const CovarianceKeywords k = resolveKeywords(
+                 preset, weight_scale, gauge, gauge_sigma_rot, gauge_sigma_trans, near, far,
+                 min_depth_ratio, sensor_depth_weight, solver, ordering, depth_sigma, stated_model,
+                 self_calibrate_nodes, self_calibrate_depth_noise, converge, converge_iterations);
+             const SelfCalibrationAppOptions& sc = k.calibration;
              c->depth_sigma = depth_sigma;
-             py::gil_scoped_release release;
-             const ThreadLimit limit(threads);
-             // dba-covariance's pipeline (computeCovariance); converge=True solves a copy: the
-             // caller's snapshot is kept. The engine's numerical errors name no snapshot (their
-             // callers do, as dba-covariance's "FILE (snapshot N): ..."): this one's name first.
-             try {
-               auto state = sc.converge ? std::make_shared<Snapshot>(*snap) : snap;
-               PipelineResult r = computeCovariance(*state, sc.pipeline(engine, so));
-               c->snapshot = std::move(state);
-               c->cov = std::move(r.cov);
-               c->options = r.options;
-               c->calibration = std::move(r.calibration);
-               c->solve = r.solve;
-               c->reweighted = std::move(r.reweighted);
-             } catch (const NumericalError& e) {
-               throw NumericalError(snap->name() + ": " + e.what(), e.keyframes());
-             }
+             // Without the GIL, stopped by Ctrl-C between the engine's stages and loops.
+             interruptible([&] {
+               const ThreadLimit limit(threads);
+               // dba-covariance's pipeline (computeCovariance); converge=True solves a copy: the
+               // caller's snapshot is kept. The engine's numerical errors name no snapshot (their
+               // callers do, as dba-covariance's "FILE (snapshot N): ..."): this one's name
+               // first.
+               try {
+                 auto state = sc.converge ? std::make_shared<Snapshot>(*snap) : snap;
+                 PipelineResult r = computeCovariance(*state, sc.pipeline(k.engine, k.solver));
+                 c->snapshot = std::move(state);
+                 c->cov = std::move(r.cov);
+                 c->options = r.options;
+                 c->calibration = std::move(r.calibration);
+                 c->solve = r.solve;
+                 c->reweighted = std::move(r.reweighted);
+               } catch (const NumericalError& e) {
+                 throw NumericalError(snap->name() + ": " + e.what(), e.keyframes());
+               }
+             });
              return c;
            }),
            py::arg("snapshot"), py::kw_only(), py::arg("preset") = "droid",

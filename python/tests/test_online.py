@@ -250,3 +250,53 @@ def test_command_line_runs_a_droid_script_with_the_hook(torch, sim_files, tmp_pa
                             *map(str, sim_files[:1])], capture_output=True, text=True, env=env)
         assert r.returncode == 2 and r.stdout == "", r.stderr
         assert f"{option}: {value} is not in {message}" in r.stderr
+
+
+RAN = '''
+import pathlib, sys
+pathlib.Path(sys.argv[1]).write_text("DROID ran")
+'''
+
+
+def test_bad_options_are_refused_before_droid_starts(tmp_path):
+    script = tmp_path / "droid.py"
+    script.write_text(RAN)
+    marker = tmp_path / "ran"
+    cases = [
+        (["--gauge", "foo"], "--gauge foo: unknown gauge 'foo', expected two-pose, minimal or "
+                             "droid"),
+        (["--preset", "x"], "--preset x: unknown preset 'x', expected droid or paper"),
+        (["--weight-scale", "0"], "--weight-scale 0.0: weight scale must be finite and > 0"),
+        (["--weight-scale", "-1"], "--weight-scale -1.0: weight scale must be finite and > 0"),
+        (["--fps", "0"], "--fps 0: expected a finite positive frame rate (frames per second)"),
+        (["--fps", "-20"], "--fps -20: expected a finite positive frame rate (frames per "
+                           "second)"),
+        (["--fps", "nan"], "--fps nan: expected a finite positive frame rate (frames per "
+                           "second)"),
+        (["--digits", "0"], "--digits: 0 is not in 1..17"),
+    ]
+    for args, message in cases:
+        r = subprocess.run([sys.executable, ONLINE, *args, "--", str(script), str(marker)],
+                           capture_output=True, text=True)
+        assert r.returncode == 2 and r.stdout == "", (args, r.stderr)
+        assert r.stderr.splitlines()[-1] == "dbacov_online.py: error: " + message, args
+        assert not marker.exists(), args
+    # and good options start it
+    droid = tmp_path / "droid_slam"
+    droid.mkdir()
+    (droid / "droid_frontend.py").write_text(FRONTEND)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.environ.get("PYTHONPATH", ""),
+                                                       str(droid)]))
+    r = subprocess.run([sys.executable, ONLINE, "--fps", "20", "--gauge", "minimal", "--",
+                        str(script), str(marker)], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert marker.read_text() == "DROID ran"
+
+
+def test_printer_checks_its_keywords_when_made():
+    with pytest.raises(ValueError, match="^unknown gauge 'foo', expected two-pose, minimal or "
+                                         "droid$"):
+        dbacov_online.KeyframeSigmaPrinter(gauge="foo")
+    with pytest.raises(TypeError, match="^check_options\\(\\) got an unknown keyword argument "
+                                        "'weightscale' \\(did you mean 'weight_scale'\\?\\)"):
+        dbacov_online.KeyframeSigmaPrinter(weightscale=3)

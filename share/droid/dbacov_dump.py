@@ -60,12 +60,13 @@ import hashlib
 import os
 import sys
 import tempfile
+import zipfile
 
 import numpy as np
 
 __all__ = ["dump_dba_snapshot", "check_snapshot", "write_snapshot_npz", "to_numpy",
            "KeyframeRecord", "KeyframeTimeError", "DbaDumper", "read_euroc_image_times",
-           "snapshot_arrays",
+           "snapshot_arrays", "exception_text", "read_real",
            "DROID_STEREO_RIG"]
 
 #: The fixed transform DROID-SLAM's BA applies on an edge with ii == jj (droid_kernels.cu: the
@@ -73,11 +74,44 @@ __all__ = ["dump_dba_snapshot", "check_snapshot", "write_snapshot_npz", "to_nump
 DROID_STEREO_RIG = np.array([-0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
 
 
+def exception_text(exc):
+    """str(exc), or what can be said of it when its own __str__ fails (a hook must never raise
+    while it reports a failure)."""
+    try:
+        return str(exc)
+    except Exception:  # noqa: BLE001 -- any failure of a foreign __str__
+        return f"<{type(exc).__name__} whose message cannot be printed: its __str__ raised>"
+
+
 def to_numpy(x):
     """A private numpy copy of a torch tensor (any device) or of anything np.asarray accepts."""
     if hasattr(x, "detach"):
         x = x.detach().cpu().numpy()
     return np.array(x, copy=True)
+
+
+def read_real(x, name, integer=False):
+    """to_numpy(x), refusing (ValueError naming `name`) what a conversion to the snapshot dtypes
+    would silently change: a masked array (its mask), complex values (the imaginary part),
+    booleans and non-numeric dtypes; with `integer`, values that are not integers (a float 1.7
+    would become 1; integral floats such as 2.0 are accepted)."""
+    if isinstance(x, np.ma.MaskedArray):
+        raise ValueError(f"{name} is a NumPy masked array: its mask would be ignored; pass a "
+                         "plain array")
+    a = to_numpy(x)
+    if a.dtype.kind == "c":
+        raise ValueError(f"{name} has the complex dtype {a.dtype}: its imaginary part would be "
+                         "dropped; expected real numbers")
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{name} has the dtype {a.dtype}, expected real numbers (a float or "
+                         "integer dtype)")
+    if integer and a.dtype.kind == "f":
+        bad = np.flatnonzero(~np.isfinite(a) | (a != np.round(a)))
+        if bad.size:
+            raise ValueError(f"{name}[{bad[0]}] is {a.reshape(-1)[bad[0]]!r}, not a keyframe "
+                             "index: expected integers (integral floats such as 2.0 are "
+                             "accepted; a fraction is never rounded)")
+    return a
 
 
 def _plane_layout(a, name):
@@ -125,6 +159,16 @@ def check_snapshot(arrays, check_values=True, names=None):
             k = bad[0]
             raise ValueError(f"{k_(key)}: edge {k} names keyframe {arrays[key][k]}, "
                              f"outside [0, {n}) (N = {n} keyframes)")
+    if "tstamp" in arrays:
+        # dbacov identifies a keyframe by its tstamp (image index): every tool refuses repeats.
+        ts = np.asarray(arrays["tstamp"]).reshape(-1)
+        order = np.argsort(ts, kind="stable")
+        dup = np.flatnonzero(ts[order][1:] == ts[order][:-1])
+        if dup.size:
+            a, b = sorted((int(order[dup[0]]), int(order[dup[0] + 1])))
+            raise ValueError(f"{k_('tstamp')} gives keyframes {a} and {b} the same value "
+                             f"{ts[a]:g}: a keyframe is identified by its tstamp (the image "
+                             "index), expected distinct values")
     same = np.flatnonzero(arrays["ii"] == arrays["jj"])
     if same.size and "stereo_rig" not in arrays:
         k = same[0]
@@ -169,7 +213,15 @@ def write_snapshot_npz(path, arrays, compressed=True):
                                dir=directory)
     try:
         with os.fdopen(fd, "wb") as f:
-            (np.savez_compressed if compressed else np.savez)(f, **arrays)
+            # np.savez's layout (one NAME.npy member per array, zip64), but with the archive
+            # closed on every path: np.savez leaves its ZipFile open when a write fails (a full
+            # disk), and its __del__ then prints a traceback at every update.
+            method = zipfile.ZIP_DEFLATED if compressed else zipfile.ZIP_STORED
+            with zipfile.ZipFile(f, mode="w", compression=method, allowZip64=True) as z:
+                for key, value in arrays.items():
+                    with z.open(key + ".npy", "w", force_zip64=True) as member:
+                        np.lib.format.write_array(member, np.asanyarray(value),
+                                                  allow_pickle=False)
             f.flush()
             os.fsync(f.fileno())
         os.chmod(tmp, _file_mode())
@@ -226,7 +278,7 @@ class KeyframeRecord:
     def update(self, video):
         """The frame index of keyframe slots 0..N-1 now (np.int64), updating the record."""
         n = int(video.counter.value)
-        ts = to_numpy(video.tstamp[:n + 1]).astype(np.float64).reshape(-1)
+        ts = read_real(video.tstamp[:n + 1], "video.tstamp").astype(np.float64).reshape(-1)
         if n < 1 or ts.size < n or not np.isfinite(ts[:n]).all() or \
                 (ts[:n] != np.round(ts[:n])).any():
             raise KeyframeTimeError(f"video.tstamp[:{n}] does not hold integer image indices "
@@ -335,7 +387,9 @@ def snapshot_arrays(video, graph, snapshot_id=None, timestamps_s=None, include_i
                   of pre-2025 DROID after rm_keyframe. Without one, a fresh record still detects
                   (and corrects) a removal in this very update.
     stereo_rig    the transform of edges with ii == jj, [tx ty tz qx qy qz qw]; default DROID's
-                  DROID_STEREO_RIG, written only when such edges exist.
+                  DROID_STEREO_RIG when the video is stereo (video.stereo), written only when
+                  such edges exist. Such edges on a video that is not stereo, without stereo_rig,
+                  are refused (ValueError) rather than given DROID's rig.
     compressed    np.savez_compressed (default) or np.savez.
     include_inactive  also dump the inactive edges that DROID's DBA used (see the module doc).
 
@@ -349,22 +403,26 @@ def snapshot_arrays(video, graph, snapshot_id=None, timestamps_s=None, include_i
     """
     with video.get_lock():
         n = int(video.counter.value)
-        poses = to_numpy(video.poses[:n])
-        disps = to_numpy(video.disps[:n])
-        intrinsics = to_numpy(video.intrinsics[:n])
+        poses = read_real(video.poses[:n], "video.poses")
+        disps = read_real(video.disps[:n], "video.disps")
+        intrinsics = read_real(video.intrinsics[:n], "video.intrinsics")
         frames = (record if record is not None else KeyframeRecord()).update(video)
         sens = getattr(video, "disps_sens", None)
-        sens = to_numpy(sens[:n]) if sens is not None else None
-        ii, jj = to_numpy(graph.ii), to_numpy(graph.jj)
-        target, weight = to_numpy(graph.target), to_numpy(graph.weight)
+        sens = read_real(sens[:n], "video.disps_sens") if sens is not None else None
+        ii = read_real(graph.ii, "graph.ii", integer=True)
+        jj = read_real(graph.jj, "graph.jj", integer=True)
+        target = read_real(graph.target, "graph.target")
+        weight = read_real(graph.weight, "graph.weight")
         t0 = max(1, int(ii.min()) + 1) if ii.size else None
         if include_inactive and ii.size:
             # DROID's FactorGraph.update(use_inactive=True): inactive edges first, then active.
             m = (graph.ii_inac >= t0 - 3) & (graph.jj_inac >= t0 - 3)
-            ii = np.concatenate([to_numpy(graph.ii_inac[m]), ii])
-            jj = np.concatenate([to_numpy(graph.jj_inac[m]), jj])
-            target = np.concatenate([to_numpy(graph.target_inac[:, m]), target], axis=1)
-            weight = np.concatenate([to_numpy(graph.weight_inac[:, m]), weight], axis=1)
+            ii = np.concatenate([read_real(graph.ii_inac[m], "graph.ii_inac", integer=True), ii])
+            jj = np.concatenate([read_real(graph.jj_inac[m], "graph.jj_inac", integer=True), jj])
+            target = np.concatenate([read_real(graph.target_inac[:, m], "graph.target_inac"),
+                                     target], axis=1)
+            weight = np.concatenate([read_real(graph.weight_inac[:, m], "graph.weight_inac"),
+                                     weight], axis=1)
 
     if n < 1 or intrinsics.shape != (n, 4):
         raise ValueError(f"video.intrinsics[:{n}] has shape {intrinsics.shape}, expected ({n}, 4)")
@@ -376,31 +434,41 @@ def snapshot_arrays(video, graph, snapshot_id=None, timestamps_s=None, include_i
     if poses.ndim != 2 or disps.ndim != 3:
         raise ValueError(f"video.poses[:{n}] / video.disps[:{n}] have shapes {poses.shape} / "
                          f"{disps.shape}, expected ({n}, 7) / ({n}, H, W)")
-    arrays = {
-        "poses": poses.astype(np.float32),
-        "disps": disps.astype(np.float32),
-        "intrinsics": intrinsics[0].astype(np.float32),
-        "ii": ii.astype(np.int64).reshape(-1),
-        "jj": jj.astype(np.int64).reshape(-1),
-        "target": _plane_layout(target, "target").astype(np.float32, copy=False),
-        "weight": _plane_layout(weight, "weight").astype(np.float32, copy=False),
-        "tstamp": frames.astype(np.float64),
-    }
+    # A value beyond float32 becomes inf here, refused by position by the checks, not a warning.
+    with np.errstate(over="ignore", invalid="ignore"):
+        arrays = {
+            "poses": poses.astype(np.float32),
+            "disps": disps.astype(np.float32),
+            "intrinsics": intrinsics[0].astype(np.float32),
+            "ii": ii.astype(np.int64).reshape(-1),
+            "jj": jj.astype(np.int64).reshape(-1),
+            "target": _plane_layout(target, "target").astype(np.float32, copy=False),
+            "weight": _plane_layout(weight, "weight").astype(np.float32, copy=False),
+            "tstamp": frames.astype(np.float64),
+        }
     if t0 is not None:
         arrays["t0"] = np.array(t0, dtype=np.int64)
     if sens is not None and (sens > 0).any():
         arrays["disps_sens"] = np.where(sens > 0, sens, 0).astype(np.float32)
     if (arrays["ii"] == arrays["jj"]).any():
-        rig = DROID_STEREO_RIG if stereo_rig is None else to_numpy(stereo_rig)
+        if stereo_rig is None and not getattr(video, "stereo", False):
+            e = int(np.flatnonzero(arrays["ii"] == arrays["jj"])[0])
+            raise ValueError(f"graph edge {e} links keyframe {int(arrays['ii'][e])} to itself "
+                             "(ii == jj), a stereo edge, but the video is not stereo "
+                             f"(video.stereo = {getattr(video, 'stereo', None)!r}): run DROID-SLAM "
+                             "with --stereo (DepthVideo(stereo=True)), or give the rig "
+                             "transform as stereo_rig= [tx ty tz qx qy qz qw] (DROID's: "
+                             "dbacov_dump.DROID_STEREO_RIG)")
+        rig = DROID_STEREO_RIG if stereo_rig is None else read_real(stereo_rig, "stereo_rig")
         arrays["stereo_rig"] = np.asarray(rig, dtype=np.float64).reshape(-1)
     if image_times_s is not None:
-        times = to_numpy(image_times_s).astype(np.float64).reshape(-1)
+        times = read_real(image_times_s, "image_times_s").astype(np.float64).reshape(-1)
         if frames.size and (frames.min() < 0 or frames.max() >= times.size):
             raise KeyframeTimeError(f"keyframe frame index {int(frames.max())} is beyond the "
                                     f"{times.size} image times given (image_times_s)")
         arrays["timestamps_s"] = times[frames]
     if timestamps_s is not None:
-        arrays["timestamps_s"] = to_numpy(timestamps_s).astype(np.float64)
+        arrays["timestamps_s"] = read_real(timestamps_s, "timestamps_s").astype(np.float64)
     if snapshot_id is not None:
         arrays["id"] = np.array(int(snapshot_id), dtype=np.int64)
     check_snapshot(arrays, check_values=False)
@@ -448,11 +516,12 @@ class DbaDumper:
             self.failures += 1
             if isinstance(exc, KeyframeTimeError):
                 self.record = KeyframeRecord()  # start afresh at the next update
-            kind = (type(exc).__name__, str(exc).split(":")[0])
+            text = exception_text(exc)
+            kind = (type(exc).__name__, text.split(":")[0])
             if kind not in self._reported:
                 self._reported.add(kind)
                 with contextlib.suppress(Exception):
                     print(f"dbacov_dump: snapshot {count} not written ({type(exc).__name__}: "
-                          f"{exc}); DROID-SLAM goes on, further failures of this kind are not "
+                          f"{text}); DROID-SLAM goes on, further failures of this kind are not "
                           "reported", file=self.stream or sys.stderr, flush=True)
             return None

@@ -37,6 +37,8 @@ import sys
 
 import numpy as np
 
+from dbacov_dump import exception_text
+
 __all__ = ["KeyframeSigmaPrinter", "keyframe_sigmas", "install", "main"]
 
 
@@ -52,7 +54,8 @@ class KeyframeSigmaPrinter:
 
     `image_times_s` (every image's time, by image index) adds the keyframe time; further keywords
     are dbacov.Covariance's (preset, weight_scale, gauge, stated_model, ...): the sigmas are
-    self-calibrated from each update's residuals unless stated_model=True."""
+    self-calibrated from each update's residuals unless stated_model=True. The keywords are
+    checked here (dbacov.check_options: TypeError, ValueError), not at the first update."""
 
     def __init__(self, out=None, image_times_s=None, include_inactive=True, digits=10,
                  stream=None, **covariance_options):
@@ -61,6 +64,14 @@ class KeyframeSigmaPrinter:
         self.include_inactive, self.digits = include_inactive, int(digits)
         self.options = dict(covariance_options)
         self.options.setdefault("depth_sigma", False)  # only the pose marginal is needed
+        try:
+            import dbacov
+        except ImportError:  # reported at each update, where the printer never raises
+            dbacov = None
+        if dbacov is not None:
+            # A bad option is the caller's error, raised here, before DROID runs; at each update
+            # it would only be a sigma-less line.
+            dbacov.check_options(**self.options)
         self.printed, self.failures = 0, 0
         self._seen = set()      # true frame indices (tstamp) already reported
         self._reported = set()  # failure kinds already reported
@@ -94,12 +105,13 @@ class KeyframeSigmaPrinter:
             self.failures += 1
             if type(exc).__name__ == "KeyframeTimeError":
                 self._record = None  # start afresh at the next update, as DbaDumper does
-            kind = (type(exc).__name__, str(exc).split(":")[0])
+            text = exception_text(exc)
+            kind = (type(exc).__name__, text.split(":")[0])
             if kind not in self._reported:
                 self._reported.add(kind)
                 with contextlib.suppress(Exception):
                     print(f"dbacov_online: update {count}: no sigma ({type(exc).__name__}: "
-                          f"{exc}); DROID-SLAM goes on, further failures of this kind are not "
+                          f"{text}); DROID-SLAM goes on, further failures of this kind are not "
                           "reported", file=self.stream or sys.stderr, flush=True)
             return None
 
@@ -167,8 +179,10 @@ def main(argv=None):
         value = getattr(o, key)
         if value is not None and not ok(value):
             p.error(f"--{key.replace('_', '-')}: {value} is not in {what}")
-    if not script:
-        p.error("give DROID-SLAM's script after --, e.g. -- demo.py --imagedir=... --calib=...")
+    if o.fps is not None and not (math.isfinite(o.fps) and o.fps > 0):
+        p.error(f"--fps {o.fps:g}: expected a finite positive frame rate (frames per second)")
+    if not 1 <= o.digits <= 17:
+        p.error(f"--digits: {o.digits} is not in 1..17")
     options = {"preset": o.preset}
     for key in ("weight_scale", "gauge"):
         if getattr(o, key) is not None:
@@ -186,6 +200,25 @@ def main(argv=None):
         options["converge"] = True
     if o.converge_iterations is not None:
         options["converge_iterations"] = o.converge_iterations
+    # Every option as Covariance would check it at the first update, refused now, before DROID.
+    try:
+        import dbacov
+    except ImportError as e:
+        p.error(f"cannot import dbacov ({exception_text(e)}): put dbacov's build/python on "
+                "PYTHONPATH")
+    for key, value in options.items():
+        try:
+            dbacov.check_options(**{key: value})
+        except (ValueError, TypeError) as e:
+            flag = "--" + key.replace("_", "-")
+            shown = "" if isinstance(value, bool) else f" {value}"
+            p.error(f"{flag}{shown}: {exception_text(e)}")
+    try:
+        dbacov.check_options(**options)
+    except (ValueError, TypeError) as e:
+        p.error(exception_text(e))
+    if not script:
+        p.error("give DROID-SLAM's script after --, e.g. -- demo.py --imagedir=... --calib=...")
     times = None if o.fps is None else np.arange(1_000_000) / o.fps
     install(KeyframeSigmaPrinter(image_times_s=times, digits=o.digits, **options))
     sys.argv = script

@@ -1,6 +1,6 @@
 // fuzz_seeds DIR: writes the seed corpora of the fuzz targets (fuzz_seeds.h) into DIR/<target>
-// (npz, rawlog, graph, ground_truth), after checking that the readers of this build read every seed
-// back (exit 1 if not). scripts/fuzz.sh runs it before fuzzing.
+// (npz, rawlog, graph, ground_truth, python_snapshot), after checking that the readers of this
+// build read every seed back (exit 1 if not). scripts/fuzz.sh runs it before fuzzing.
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -17,7 +17,8 @@ int main(int argc, char** argv) {
        {std::pair{std::string("npz"), dbacov::fuzz::npzSeeds()},
         std::pair{std::string("rawlog"), dbacov::fuzz::rawlogSeeds()},
         std::pair{std::string("graph"), dbacov::fuzz::graphSeeds()},
-        std::pair{std::string("ground_truth"), dbacov::fuzz::groundTruthSeeds()}}) {
+        std::pair{std::string("ground_truth"), dbacov::fuzz::groundTruthSeeds()},
+        std::pair{std::string("python_snapshot"), dbacov::fuzz::pythonSnapshotSeeds()}}) {
     const fs::path dir = fs::path(argv[1]) / target;
     fs::create_directories(dir);
     for (const auto& [name, bytes] : corpus) {

@@ -27,6 +27,7 @@
 #include "dbacov/sim/sensor_modes.h"
 #include "dbacov/sim/synthetic_snapshot.h"
 #include "fixtures.h"
+#include "python_snapshot_codec.h"
 
 namespace dbacov::fuzz {
 
@@ -86,6 +87,31 @@ inline Corpus npzSeeds() {
     w.add("id", io::makeNpy(std::vector<std::int32_t>{7}, {1}));
     w.commit();
   });
+  return c;
+}
+
+/// The arguments of Python's Snapshot(...) (python_snapshot_codec.h): a mono snapshot with int64,
+/// int32 and integral float64 indices, and one with every optional argument.
+inline Corpus pythonSnapshotSeeds() {
+  Corpus c;
+  const Snapshot tiny = seedSnapshot(3, 4, 5);
+  c["tiny_int64_indices.bin"] = encodeSnapshotArrays(tiny);
+  c["tiny_int32_indices.bin"] = encodeSnapshotArrays(tiny, 4);
+  c["tiny_float64_indices.bin"] = encodeSnapshotArrays(tiny, 0);
+  Snapshot full = seedSnapshot(4, 3, 4, 1, 2);
+  full.timestamps_s = std::vector<double>{1.5, 2.5, 3.5, 4.5};
+  full.disps_sens = full.disps;
+  full.stereo_rig = (Eigen::Matrix<double, 7, 1>() << -0.1, 0, 0, 0, 0, 0, 1).finished();
+  full.ii.push_back(2);  // a stereo edge
+  full.jj.push_back(2);
+  full.target.insert(full.target.end(), full.target.begin(),
+                     full.target.begin() + 2 * full.pixelsPerFrame());
+  full.weight.insert(full.weight.end(), full.weight.begin(),
+                     full.weight.begin() + 2 * full.pixelsPerFrame());
+  full.id = 7;
+  full.t0 = 1;
+  full.validate();
+  c["small_every_optional.bin"] = encodeSnapshotArrays(full);
   return c;
 }
 
@@ -203,6 +229,12 @@ inline int snapshotsInSeed(const std::string& target, const std::string& name,
 inline int itemsInSeed(const std::string& target, const std::string& name,
                        const std::vector<unsigned char>& bytes) {
   if (target == "npz" || target == "rawlog") return snapshotsInSeed(target, name, bytes);
+  if (target == "python_snapshot") {
+    const auto d = decodeSnapshotArrays(bytes.data(), bytes.size());
+    if (!d) throw InputError(name + ": declares too many items");
+    python::snapshotFromArrays(d->arrays);
+    return 1;
+  }
   const std::string path = (std::filesystem::temp_directory_path() /
                             ("dbacov_seed_" + std::to_string(::getpid()) + "_" + name))
                                .string();

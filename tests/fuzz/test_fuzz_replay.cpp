@@ -15,6 +15,7 @@ extern "C" int dbacovFuzzNpz(const std::uint8_t* data, std::size_t size);
 extern "C" int dbacovFuzzRawlog(const std::uint8_t* data, std::size_t size);
 extern "C" int dbacovFuzzGraph(const std::uint8_t* data, std::size_t size);
 extern "C" int dbacovFuzzGroundTruth(const std::uint8_t* data, std::size_t size);
+extern "C" int dbacovFuzzPythonSnapshot(const std::uint8_t* data, std::size_t size);
 
 namespace dbacov {
 namespace {
@@ -115,6 +116,24 @@ TEST(FuzzReplay, GroundTruthRegressions) {
     SCOPED_TRACE(file);
     const std::vector<unsigned char> bytes = readBytes(file);
     EXPECT_EQ(dbacovFuzzGroundTruth(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, PythonSnapshotSeedsAreValid) {
+  const fuzz::Corpus seeds = fuzz::pythonSnapshotSeeds();
+  ASSERT_GE(seeds.size(), 4u);
+  for (const auto& [name, bytes] : seeds) {
+    SCOPED_TRACE(name);
+    EXPECT_NO_THROW(EXPECT_EQ(fuzz::itemsInSeed("python_snapshot", name, bytes), 1));
+    EXPECT_EQ(dbacovFuzzPythonSnapshot(bytes.data(), bytes.size()), 0);
+  }
+}
+
+TEST(FuzzReplay, PythonSnapshotRegressions) {
+  for (const std::string& file : regressions("python_snapshot")) {
+    SCOPED_TRACE(file);
+    const std::vector<unsigned char> bytes = readBytes(file);
+    EXPECT_EQ(dbacovFuzzPythonSnapshot(bytes.data(), bytes.size()), 0);
   }
 }
 

@@ -233,13 +233,13 @@ class DumpTest(unittest.TestCase):
         path = os.path.join(self.dir, "s.npz")
         with open(path, "wb") as f:
             f.write(b"previous")
-        original = np.savez_compressed
-        np.savez_compressed = lambda *a, **k: (_ for _ in ()).throw(OSError(28, "disk full"))
+        original = np.lib.format.write_array
+        np.lib.format.write_array = lambda *a, **k: (_ for _ in ()).throw(OSError(28, "disk full"))
         try:
             with self.assertRaises(OSError):
                 dbacov_dump.dump_dba_snapshot(path, video, graph, 1)
         finally:
-            np.savez_compressed = original
+            np.lib.format.write_array = original
         with open(path, "rb") as f:
             self.assertEqual(f.read(), b"previous")
         self.assertEqual(os.listdir(self.dir), ["s.npz"])
@@ -252,8 +252,10 @@ class FakeFrontendVideo:
     rm_keyframe() shifting every buffer, with tstamp shifted (current DROID) or not (releases
     before 2025)."""
 
-    def __init__(self, capacity=16, h=3, w=4, shift_tstamp=True, images=True, rgbd=False):
+    def __init__(self, capacity=16, h=3, w=4, shift_tstamp=True, images=True, rgbd=False,
+                 stereo=False):
         self.counter = types.SimpleNamespace(value=0)
+        self.stereo = stereo  # DepthVideo(stereo=...): DROID's --stereo
         self.shift_tstamp = shift_tstamp
         rng = np.random.default_rng(5)
         poses = np.zeros((capacity, 7), np.float32)
@@ -407,7 +409,7 @@ class KeyframeTimesTest(unittest.TestCase):
             dbacov_dump.KeyframeRecord().update(video)
 
     def test_rgbd_and_stereo_keys_and_t0(self):
-        video = FakeFrontendVideo(rgbd=True)
+        video = FakeFrontendVideo(rgbd=True, stereo=True)
         for f in range(0, 18, 3):
             video.append(f)
         path = os.path.join(self.dir, "s.npz")

@@ -3,7 +3,9 @@
 // Also the check of the engine's other process-wide setting, DBACOV_KERNEL_ISA.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
+#include <functional>
 #include <memory>
 
 namespace dbacov {
@@ -19,6 +21,30 @@ class ThreadLimit {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+};
+
+/// A host's way to stop a long computation (the Python module: Ctrl-C). While it lives, every
+/// parallel loop of the engine that this thread starts calls `check` on this thread — when the
+/// loop starts and between its items — at most once per `period`; an exception thrown by `check`
+/// stops the loop and leaves the computation (the engine's state is RAII-owned, nothing leaks).
+/// Loops run by other threads are not checked. Scopes nest; the innermost is used.
+class ScopedInterruptCheck {
+ public:
+  explicit ScopedInterruptCheck(std::function<void()> check,
+                                std::chrono::milliseconds period = std::chrono::milliseconds(20));
+  ~ScopedInterruptCheck();
+  ScopedInterruptCheck(const ScopedInterruptCheck&) = delete;
+  ScopedInterruptCheck& operator=(const ScopedInterruptCheck&) = delete;
+
+  /// Calls this thread's innermost check when its period has passed (or `now` is set); does
+  /// nothing on a thread without one.
+  static void poll(bool now = false);
+
+ private:
+  std::function<void()> check_;
+  std::chrono::steady_clock::duration period_;
+  std::chrono::steady_clock::time_point last_;
+  ScopedInterruptCheck* outer_;
 };
 
 /// Threads the parallel regions may use now.
