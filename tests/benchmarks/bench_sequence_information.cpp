@@ -9,7 +9,7 @@
 #include <fstream>
 #include <string>
 
-#include "dbacov/app/sequence_information.h"
+#include "dbacov/core/sequence_information.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/sim/scenario.h"
 

@@ -12,7 +12,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
-#include "dbacov/app/sequence_information.h"
+#include "dbacov/core/sequence_information.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/marginal_solver.h"
 #include "dbacov/core/pose_graph.h"

@@ -213,13 +213,12 @@ void GraphSink::add(const Snapshot& s, const DbaCovariance& cov) {
 void GraphSink::commit() {
   PoseGraph g;
   if (sequence_) {
-    const SequenceInformation si = sequenceInformation(*problem_, options_);
-    const SparsifiedGraph sg = sparsifyInformation(si.info, si.problem, graphTopology(edges_));
+    const SequenceGraph sg = sequenceGraph(*problem_, options_, graphTopology(edges_));
     g = sg.graph;
     std::ostringstream os;
     os << "graph: " << problem_->numKeyframes() << " keyframes, " << problem_->numEdges()
        << " DBA edges (final flows) of " << problem_->numSnapshots()
-       << " snapshots, re-solved: " << si.solve.brief() << "; " << toString(edges_) << " export of "
+       << " snapshots, re-solved: " << sg.solve.brief() << "; " << toString(edges_) << " export of "
        << sg.edges << " edges, information scale " << formatDouble(sg.scale)
        << ", KL to the dense information " << formatDouble(sg.kl) << " nats ("
        << formatDouble(sg.kl / std::max(sg.dof, 1)) << " per DoF)";

@@ -24,7 +24,7 @@ struct CovarianceAppOptions {
   std::string csv_path, relative_csv_path, depth_sigma_dir, rawlog_path, graph_prefix;
   EmitMode emit = EmitMode::Latest;
   std::string label;  ///< --label; empty: the noise model's default (rawlogLabel)
-  GraphEdges graph_edges = GraphEdges::Covisibility;  ///< --graph-edges (sequence_information.h)
+  GraphEdges graph_edges = GraphEdges::Covisibility;  ///< --graph-edges (sequence_graph.h)
   std::optional<double> fps;     ///< keyframe times = start + tstamp / fps without 'timestamps_s'
   double start_time = 0;         ///< --start-time: time of tstamp 0 with --fps
   DbaOptionOverrides engine;     ///< --preset, --weight-scale, --gauge, ... (core/options.h)

@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "dbacov/app/sequence_information.h"
+#include "dbacov/core/sequence_graph.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/pose_graph.h"
 #include "dbacov/core/snapshot.h"
@@ -157,7 +157,7 @@ class PoseRawlogSink final : public OutputSink {
 /// out for MRPT 2.5.8's loader), PREFIX.g2o (g2o's convention) and PREFIX.nodes.csv
 /// (node,tstamp,time_s: the keyframe times that the graph formats cannot hold).
 /// Edges: `chain` / `covisibility` export the whole-sequence information counted once
-/// (sequence_information.h, fusable); `snapshot-marginals-not-fusable` is the builder's graph of
+/// (sequence_graph.h, fusable); `snapshot-marginals-not-fusable` is the builder's graph of
 /// per-snapshot marginal relative informations (the same pixels counted in many edges).
 class GraphSink final : public OutputSink {
  public:

@@ -1,4 +1,4 @@
-#include "dbacov/app/sequence_information.h"
+#include "dbacov/core/sequence_information.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,7 +12,7 @@
 #include "dbacov/core/gauge.h"
 #include "dbacov/core/marginal_solver.h"
 
-namespace dbacov::app {
+namespace dbacov {
 
 void SequenceProblem::add(const Snapshot& s) {
   if (H_ < 0) {
@@ -576,4 +576,18 @@ SequenceInformation sequenceInformation(const SequenceProblem& problem, const Db
   return si;
 }
 
-}  // namespace dbacov::app
+SequenceGraph sequenceGraph(const SequenceProblem& problem, const DbaOptions& options,
+                            GraphTopology topology, const DbaSolverOptions& solver) {
+  const SequenceInformation si = sequenceInformation(problem, options, solver);
+  SparsifiedGraph sg = sparsifyInformation(si.info, si.problem, topology);
+  SequenceGraph out;
+  out.graph = std::move(sg.graph);
+  out.solve = si.solve;
+  out.edges = sg.edges;
+  out.scale = sg.scale;
+  out.kl = sg.kl;
+  out.dof = sg.dof;
+  return out;
+}
+
+}  // namespace dbacov
