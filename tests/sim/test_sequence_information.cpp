@@ -12,10 +12,10 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
-#include "dbacov/core/sequence_information.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/marginal_solver.h"
 #include "dbacov/core/pose_graph.h"
+#include "dbacov/core/sequence_information.h"
 #include "dbacov/sim/consistency.h"
 #include "dbacov/sim/scenario.h"
 #include "dbacov/sim/scenario_json.h"

@@ -20,49 +20,23 @@ namespace dbacov::app {
 namespace {
 
 constexpr const char* kConventions = R"(
-Conventions (docs/conventions.md has the details):
-  Input snapshots are DROID-SLAM DBA dumps (.npz): poses T_cw [tx ty tz qx qy qz qw], inverse
-  depths, targets (x = column, y = row) and confidences per edge and pixel.
-  Output poses are camera-to-world T_wc [tx ty tz qx qy qz qw]. Covariances are 6x6 over the
-  tangent xi = [rho; phi] (translation first) of the right perturbation T_wc * Exp(xi), in the
-  snapshot's (scale-free) length units and radians. A pixel factor's information is
-  weight_scale * diag(w_x, w_y) px^-2.
-  Presets: droid = weight scale 0.001, drop pixels with depth ratio z_j*d < 0.25, gauge two-pose
-  hard-fixed; paper = weight scale 0.1, near 0.25 / far 2, gauge two-pose with sigmas 1 deg and
-  0.05. Options given explicitly override the preset.
-  Gauge keyframes are the two lowest-indexed keyframes in 'ii'. A hard-fixed keyframe has zero
-  covariance and log10_det = -inf.
-  --relative-csv pairs: every co-visible pair (from the lower to the higher keyframe index) and
-  every pair of consecutive graph keyframes; pose T_wc_from^-1 * T_wc_to, same tangent.
-  --depth-sigma files: DIR/<snapshot>_<keyframe>.npy, float32 HxW standard deviation of the
-  inverse depth of each pixel of each source keyframe; NaN where a pixel carries no information.
-  -o rawlog: gz-compressed, observations-only; one CObservationRobotPose per emitted keyframe,
-  pose = CPose3DPDFGaussian with mean T_wc and covariance over MRPT's [x y z yaw pitch roll]
-  converted exactly (to first order) from the tangent one; timestamp = the keyframe's time
-  ('timestamps_s', or tstamp / --fps). --emit final identifies keyframes by their tstamp and
-  writes them in time order. Inputs may be rawlogs of DBA snapshots (droid2rawlog).
-  --graph: the whole sequence as one DBA problem (each edge's final flows, each keyframe's final
-  depths and pose; node id = keyframe number in tstamp order), re-solved, its depth-reduced pose
-  information exported onto the co-visible and consecutive pairs (--graph-edges covisibility) or
-  the chain of consecutive keyframes (chain), never exceeding the true information: the edges
-  may be fused with independent loop closures and priors. --graph-edges
-  snapshot-marginals-not-fusable keeps the old graph (inverse per-snapshot marginal relative
-  covariances: the same pixels counted in many edges, over-confident when optimized). .graphbin keeps everything; .graph is laid out for MRPT 2.5.8's
-  text loader (which drops rotation-rotation off-diagonal information); .g2o uses g2o's order
-  and its quaternion-vector error (rotation information x4). dba-posegraph optimizes it.
-  All outputs are written atomically (temporary file, then rename).)";
+Conventions (docs/conventions.md): input snapshots are DROID-SLAM DBA dumps (.npz, or rawlogs of
+them from droid2rawlog); output poses are camera-to-world T_wc [tx ty tz qx qy qz qw];
+covariances are 6x6 over the tangent xi = [rho; phi] (translation first) of the right
+perturbation T_wc * Exp(xi), in the snapshot's length units and radians. A pixel factor's stated
+information is weight_scale * diag(w_x, w_y) px^-2; the noise model is self-calibrated from the
+residuals unless --stated-model. Presets: droid = weight scale 0.001, drop pixels with
+z_j*d < 0.25, gauge two-pose hard-fixed; paper = weight scale 0.1, near 0.25 / far 2, gauge
+sigmas 1 deg and 0.05; explicit options override the preset. Gauge keyframes are the two
+lowest-indexed in 'ii' (hard-fixed: zero covariance, log10_det = -inf). --graph exports the
+whole sequence's information counted once (fusable). Every output is written atomically.)";
 constexpr const char* kExitStatus = R"TXT(
-Failures: a snapshot that cannot be read, is invalid, has no covariances (numerical) or whose
-results cannot be written is reported with its file, snapshot, key, keyframe or edge. With
---keep-going (the default) the other snapshots are still processed and every output is written;
-with --fail-fast the first failure stops the run and no output is written at all (previous files
-stay as they were). The last line on standard error sums up: "N snapshots read, P processed,
-F failed: K invalid input (files...), K numerical (file: reason), K output (...)", and
-"; K outputs not written" when an output file could not be committed at the end.
-Environment: DBACOV_PROGRESS_PERIOD=SECONDS, the period of the progress lines on a non-terminal
-(default 5; 0 = every snapshot); DBACOV_KERNEL_ISA=baseline|avx2 forces the pixel kernel's
-variant (default: avx2 where the CPU has it; another value is bad usage).
-Exit status: 0 success, 1 when any snapshot or output failed, 2 on bad usage.)TXT";
+Failures name the file, snapshot, key, keyframe or edge; with --keep-going (the default) the
+other snapshots are processed and every output is written, with --fail-fast none is; the last
+line on standard error sums up. Environment: DBACOV_PROGRESS_PERIOD=SECONDS (progress period off
+a terminal, default 5), DBACOV_KERNEL_ISA=baseline|avx2 (the pixel kernel's variant).
+Exit status: 0 success, 1 when any snapshot or output failed, 2 on bad usage.
+Every output, picture and message in full: docs/apps/dba-covariance.md.)TXT";
 
 using Sinks = std::vector<std::unique_ptr<OutputSink>>;
 

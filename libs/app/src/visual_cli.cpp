@@ -9,21 +9,10 @@
 namespace dbacov::app::detail {
 
 const char* const kVisualHelp = R"(
-Pictures (every keyframe once: pose and covariance from the last snapshot in which it is not a
-gauge keyframe, else the last that contains it; keyframes identified by their tstamp):
-  --scene/--snapshot: an MRPT COpenGLScene (opens in SceneViewer3D) in the snapshots' world frame,
-  shown with --scene-up as up: ground grid, trajectory (black), each keyframe as a camera frustum
-  along its optical axis (+z; newest red, gauge grey), the 3-sigma ellipsoid of each keyframe's
-  world-frame position covariance R_wc * Sigma[0:3,0:3] * R_wc^T scaled by --scene-exaggeration
-  (stated in the legend), co-visible pairs (green) and, with --point-cloud, points from the
-  inverse depths (every --point-stride-th pixel, depth <= 5x the keyframe's median). The PNG is
-  rendered offscreen (EGL, no X server) with the camera fitted to the keyframes;
-  --snapshot-every K adds OUT_<snapshot label, 6 digits>.png after every K-th processed snapshot.
-  --plots DIR: covariance_covisibility.png (log10 det Sigma per keyframe over time next to the
-  co-visibility matrix), pose_sigmas.png (translation and rotation standard deviations over time),
-  depth_sigma/<snapshot>_<keyframe>.png (inverse depth and its per-pixel sigma, colour bars) and
-  keyframes.csv (the plotted values); drawn by gnuplot (pngcairo). --plots computes the per-pixel
-  depth variances (as --depth-sigma does).)";
+Pictures: every keyframe once (pose and covariance from the last snapshot in which it is not a
+gauge keyframe); --scene/--snapshot draw each keyframe's frustum and the 3-sigma ellipsoid of its
+world-frame position covariance R_wc * Sigma[0:3,0:3] * R_wc^T (offscreen, no X server); --plots
+DIR writes the figures (gnuplot) and their values.)";
 
 void addVisualOptions(CLI::App& cli, VisualCli& v) {
   cli.add_option("--scene", v.scene.scene_path,

@@ -10,9 +10,9 @@
 #include <utility>
 #include <vector>
 
-#include "dbacov/core/sequence_graph.h"
 #include "dbacov/core/covariance.h"
 #include "dbacov/core/pose_graph.h"
+#include "dbacov/core/sequence_graph.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/io/atomic_file.h"
 #include "dbacov/io/deferred_files.h"

@@ -102,12 +102,11 @@ struct dbacov::EnumNames<dbacov::GraphTopology> {
        {GraphTopology::Decomposition, "decomposition"}}};
 };
 
-
 namespace dbacov {
 
 /// The exported graph of a sequence and what it cost.
 struct SequenceGraph {
-  PoseGraph graph;        ///< node id = keyframe index; edges from lower to higher id
+  PoseGraph graph;         ///< node id = keyframe index; edges from lower to higher id
   DbaSolverSummary solve;  ///< the re-solve of the assembled problem
   std::size_t edges = 0;   ///< exported pose-graph edges
   double scale = 0;        ///< c: exported information = c · marginal-relative information
