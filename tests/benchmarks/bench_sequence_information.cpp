@@ -14,7 +14,6 @@
 #include "dbacov/sim/scenario.h"
 
 using namespace dbacov;
-using namespace dbacov::app;
 using Clock = std::chrono::steady_clock;
 
 static double since(Clock::time_point t0) {

@@ -21,7 +21,6 @@
 #include "dbacov/sim/scenario_json.h"
 
 using namespace dbacov;
-using namespace dbacov::app;
 
 namespace {
 
