@@ -32,8 +32,10 @@ lowest-indexed in 'ii' (hard-fixed: zero covariance, log10_det = -inf). --graph 
 whole sequence's information counted once (fusable). Every output is written atomically.)";
 constexpr const char* kExitStatus = R"TXT(
 Failures name the file, snapshot, key, keyframe or edge; with --keep-going (the default) the
-other snapshots are processed and every output is written, with --fail-fast none is; the last
-line on standard error sums up. Environment: DBACOV_PROGRESS_PERIOD=SECONDS (progress period off
+other snapshots are processed and every output is written, with --fail-fast no output is
+written. The last line on standard error sums up:
+"N snapshots read, P processed, F failed: K invalid input (...), K numerical (...), K output (...)".
+Environment: DBACOV_PROGRESS_PERIOD=SECONDS (progress period off
 a terminal, default 5), DBACOV_KERNEL_ISA=baseline|avx2 (the pixel kernel's variant).
 Exit status: 0 success, 1 when any snapshot or output failed, 2 on bad usage.
 Every output, picture and message in full: docs/apps/dba-covariance.md.)TXT";
