@@ -336,10 +336,10 @@ static int study(int argc, char** argv) {
           const sim::CovarianceFunction covariance =
               spec.covariance_only ? sim::pipelineCovariance(nullptr)
               : spec.bootstrap
-                  ? sim::CovarianceFunction([&spec](const Snapshot& s, const DbaOptions& opt) {
+                  ? sim::CovarianceFunction([&spec](const Snapshot& one, const DbaOptions& opt) {
                       return selfCalibratedCovariance(
-                          s, opt, {},
-                          bootstrapSelfCalibration(s, opt, spec.options, spec.bootstrap_options)
+                          one, opt, {},
+                          bootstrapSelfCalibration(one, opt, spec.options, spec.bootstrap_options)
                               .calibration);
                     })
                   : sim::pipelineCovariance(&spec.options);
