@@ -244,5 +244,51 @@ TEST(SimulApp, HelpDocumentsEveryOptionAndTheConventions) {
     EXPECT_TRUE(contains(r.out, opt)) << opt;
 }
 
+// --set KEY=VALUE: any setting of the scenario schema by its JSON key, the ones without a flag
+// too, applied after the flags; a number, a name, a vector; bad ones are bad usage naming them.
+TEST(SimulApp, SetGivesEverySettingByItsKey) {
+  testing::TempDir dir;
+  const AppResult r = simul({"-o",
+                             dir.file("out"),
+                             "--mode",
+                             "whole",
+                             "--keyframes",
+                             "4",
+                             "--height",
+                             "10",
+                             "--width",
+                             "14",
+                             "--no-solve",
+                             "-q",
+                             "--noise-amplitude",
+                             "2",
+                             "--set",
+                             "noise.outlier_fraction=0.02",
+                             "--set",
+                             "noise.model=correlated",
+                             "--set",
+                             "noise.amplitude=3",
+                             "--set",
+                             "scene.min=[-4, -2, -1]"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string json = testing::readFile(dir.file("out/scenario.json"));
+  EXPECT_TRUE(contains(json, "\"outlier_fraction\": 0.02")) << json;
+  EXPECT_TRUE(contains(json, "\"correlated\"")) << json;
+  EXPECT_TRUE(contains(json, "\"amplitude\": 3.0")) << json;  // --set after the flag
+  EXPECT_TRUE(contains(json, "-4.0")) << json;
+  for (const auto& [arg, message] : std::vector<std::pair<std::string, std::string>>{
+           {"noise.outlier_fraction",
+            "simul-dba: --set 'noise.outlier_fraction': expected KEY=VALUE"},
+           {"noise.bogus=1",
+            "simul-dba: --set: unknown scenario key 'noise.bogus'; the keys: seed"},
+           {"noise.amplitude=loud", "--set noise.amplitude"},
+           {"noise.model=purple", "--set noise.model"}}) {
+    const AppResult bad = simul({"-o", dir.file("bad"), "-q", "--set", arg});
+    EXPECT_EQ(bad.code, 2) << arg << ": " << bad.err;
+    EXPECT_TRUE(contains(bad.err, message)) << bad.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("bad"))) << arg;
+  }
+}
+
 }  // namespace
 }  // namespace dbacov

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "dbacov/core/keyframe_times.h"
 #include "dbacov/sim/scenario_json.h"
@@ -52,12 +53,47 @@ void ScenarioOptions::add(CLI::App& cli) {
   cli.add_flag("--no-solve", no_solve,
                "Store the ground truth as the state instead of solving the DBA")
       ->group(g);
+  cli.add_option("--set", sets,
+                 "Any scenario setting by its JSON key, e.g. --set noise.correlation_length_px=3 "
+                 "(repeatable, after the flags; VALUE is JSON, else text; every key: the "
+                 "scenario.json a run writes)")
+      ->type_name("KEY=VALUE")
+      ->group(g);
 }
+
+namespace {
+
+/// One --set: the schema row of KEY reads VALUE as JSON (a number, true/false, [x, y, z]) or,
+/// when it is none, as the text itself (an enum's name).
+void applySet(const std::string& arg, sim::ScenarioConfig& c) {
+  const std::size_t eq = arg.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw std::invalid_argument("--set '" + arg + "': expected KEY=VALUE");
+  const std::string key = arg.substr(0, eq), text = arg.substr(eq + 1);
+  const sim::ScenarioField* row = nullptr;
+  for (const sim::ScenarioField& f : sim::scenarioSchema())
+    if (f.key == key) row = &f;
+  if (!row) {
+    std::string keys;
+    for (const sim::ScenarioField& f : sim::scenarioSchema())
+      keys += (keys.empty() ? "" : ", ") + f.key;
+    throw std::invalid_argument("--set: unknown scenario key '" + key + "'; the keys: " + keys);
+  }
+  nlohmann::json value = nlohmann::json::parse(text, nullptr, false);
+  if (value.is_discarded()) value = text;
+  try {
+    row->read(value, c, "--set " + key);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(e.what());
+  }
+}
+
+}  // namespace
 
 bool ScenarioOptions::anyScenarioSetting() const {
   for (const auto& [flag, text] : given)
     if (flag != "--weight-scale" && flag != "--fps" && flag != "--start-time") return true;
-  return !config_path.empty() || snapshots || no_solve;
+  return !config_path.empty() || snapshots || no_solve || !sets.empty();
 }
 
 std::optional<double> ScenarioOptions::number(const std::string& flag) const {
@@ -85,6 +121,7 @@ sim::ScenarioConfig ScenarioOptions::resolve() const {
       throw std::invalid_argument("--snapshots applies to --mode sliding-window only");
     c.trajectory.num_keyframes = *snapshots + c.window - 1;
   }
+  for (const std::string& arg : sets) applySet(arg, c);
   if (no_solve) c.solve = false;
   if (given.count("--fps")) checkFps(c.time.fps);
   c.validate();

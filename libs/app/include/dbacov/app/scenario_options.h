@@ -1,15 +1,18 @@
 // Command-line options that select and override a simulated scenario (sim/scenario.h), shared by
-// `simul-dba` and the Monte Carlo mode of `dba-evaluate`. The overridable settings and their flags
-// are the rows of sim/scenario_schema.h (the same table that reads and writes the JSON files).
+// `simul-dba` and the Monte Carlo mode of `dba-evaluate`. The settings are the rows of
+// sim/scenario_schema.h (the same table that reads and writes the JSON files): most have a flag
+// of their own, and every one (those that do not, e.g. noise.outlier_fraction, too) can be given
+// as `--set KEY=VALUE` with its JSON key.
 //
 // Precedence: the defaults of ScenarioConfig, then the `--config FILE` (share/sim/*.json, see
-// sim/scenario_json.h), then every option given on the command line.
+// sim/scenario_json.h), then the flags, then every `--set` in the order given.
 #pragma once
 
 #include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "dbacov/sim/scenario.h"
 
@@ -22,7 +25,9 @@ namespace dbacov::app {
 struct ScenarioOptions {
   std::string config_path;
   std::map<std::string, std::string> given;  ///< flag → text, for the rows of the schema
-  std::optional<int> snapshots;              ///< sliding window: keyframes = snapshots + W − 1
+  /// --set KEY=VALUE, in the order given (VALUE: JSON, or else a string).
+  std::vector<std::string> sets;
+  std::optional<int> snapshots;  ///< sliding window: keyframes = snapshots + W − 1
   bool no_solve = false;
 
   /// True when any scenario setting other than --weight-scale, --fps and --start-time was given.
