@@ -84,6 +84,16 @@ TEST(RefusedInputs, TextGraphEdgesThatMrptWouldMisread) {
             dir.file("bad.graph") + ":5: edge 0 -> 4294967297: node id 4294967297 is beyond the "
                                     "ids dbacov handles (0 to 2147483647): it would alias "
                                     "another node; renumber the graph's nodes"},
+           {"self-edge",
+            [](const std::string& l) {
+              return std::regex_replace(l, std::regex("^EDGE_SE3:QUAT 0 1 "),
+                                        "EDGE_SE3:QUAT 1 01 ");
+            },
+            dir.file("bad.graph") + ":5: edge 1 -> 01: joins node 1 to itself; an edge needs two "
+                                    "nodes (MRPT's loader drops it silently)"},
+           {"NUL byte", [](const std::string& l) { return l.substr(0, 20) + '\0' + l.substr(20); },
+            dir.file("bad.graph") + ":5: a NUL byte at column 21: a text graph holds no NUL; "
+                                    "MRPT's loader would drop the rest of the line"},
        }) {
     SCOPED_TRACE(c.name);
     std::ofstream out(dir.file("bad.graph"));
@@ -95,6 +105,48 @@ TEST(RefusedInputs, TextGraphEdgesThatMrptWouldMisread) {
     EXPECT_EQ(r.err, "dba-posegraph: error: " + c.error + "\n");
     EXPECT_FALSE(std::filesystem::exists(dir.file("t.tum")));
   }
+}
+
+TEST(RefusedInputs, ExtraConstraintsThatWouldBeReadSilentlyWrong) {
+  testing::TempDir dir;
+  mrpt_bridge::writeGraphBinary(dir.file("g.graphbin"), lineGraph());
+  std::ofstream(dir.file("g.nodes.csv")) << "node,tstamp,time_s\n0,0,1000\n1,1,1001\n2,2,1002\n";
+  std::ofstream(dir.file("t.tum")) << "previous\n";
+  const std::string prior = " 1 0 0 0 0 0 1 0.1 0.01";
+  const std::string graph_before = testing::readFile(dir.file("g.graphbin"));
+  for (const auto& [text, error] : std::vector<std::pair<std::string, std::string>>{
+           {"absolute 4294967299" + prior,
+            ":1: node id 4294967299 is beyond the ids dbacov handles (0 to 2147483647): it would "
+            "alias another node"},
+           {"relative 0 4294967298" + prior,
+            ":1: node id 4294967298 is beyond the ids dbacov handles (0 to 2147483647): it would "
+            "alias another node"},
+           {"absolute 1" + prior + "\n# a comment\nabsolute 1 1.5 0 0 0 0 0 1 0.1 0.01",
+            ":3: node 1 already has an absolute prior (line 1): give one prior per node (two "
+            "would be merged silently into their information-weighted mean)"},
+           {"absolute 1" + prior + "\nabsolute 01" + prior,
+            ":2: node 01 already has an absolute prior (line 1): give one prior per node (two "
+            "would be merged silently into their information-weighted mean)"},
+           {"absolute 1" + prior + std::string("\0relative 0 2", 13) + prior,
+            ":1: a NUL byte at column 34: a constraints file is text; the rest of the line would "
+            "be lost"},
+       }) {
+    SCOPED_TRACE(text);
+    std::ofstream(dir.file("extra.txt")) << text << '\n';
+    const AppResult r = posegraph({"-g", dir.file("g.graphbin"), "--extra", dir.file("extra.txt"),
+                                   "--tum", dir.file("t.tum")});
+    EXPECT_EQ(r.code, 1);
+    EXPECT_EQ(r.err, "dba-posegraph: error: " + dir.file("extra.txt") + error + "\n");
+    EXPECT_EQ(testing::readFile(dir.file("t.tum")), "previous\n");  // the previous output stays
+    EXPECT_EQ(testing::readFile(dir.file("g.graphbin")), graph_before);
+  }
+  // One prior per node, on two nodes, is taken.
+  std::ofstream(dir.file("extra.txt")) << "absolute 0" << prior << "\nabsolute 2 2 0 0 0 0 0 1 "
+                                       << "0.1 0.01\n";
+  const AppResult r = posegraph({"-g", dir.file("g.graphbin"), "--extra", dir.file("extra.txt"),
+                                 "--tum", dir.file("t.tum"), "-q"});
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(testing::splitLines(testing::readFile(dir.file("t.tum"))).size(), 3u);
 }
 
 TEST(RefusedInputs, BinaryGraphsWithAliasingIdsAsymmetricInformationOrOneNode) {

@@ -251,6 +251,11 @@ class Run {
     progress_->step(s.source);
     if (!item.cov)
       return report(item.error_kind, s.source, s.name() + ": " + item.error, item.error);
+    try {
+      labels_.claim(s);  // a rawlog's label that an earlier snapshot holds
+    } catch (const InputError& e) {
+      return report(FailureKind::InvalidInput, s.source, e.what(), e.what());
+    }
     // Results are verified, so add() fails only when an output cannot be written (disk full):
     // that output is given up (reported once, not committed) and the others go on.
     bool added = true;
@@ -286,6 +291,7 @@ class Run {
   Progress* progress_ = nullptr;
   RunSummary sum_;
   detail::SelfCalibrationRun selfcal_;  ///< --self-calibrate, --converge, --edge-csv
+  SnapshotLabels labels_;               ///< of the snapshots processed so far
 };
 
 }  // namespace
@@ -303,6 +309,12 @@ int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
     checkEngineEnvironment();  // DBACOV_KERNEL_ISA
     opt.scene.validate();
     if (!opt.anyOutput()) throw std::invalid_argument("no output requested");
+    if (!opt.graph_prefix.empty() && engine.gauge.type == GaugeOptions::Type::Droid)
+      throw std::invalid_argument(
+          "--graph cannot take --gauge droid: DROID's t0 holds poses of one window, and the "
+          "sequence graph joins every window into one problem that has no t0 (it is anchored at "
+          "its two lowest keyframes); give --gauge two-pose or minimal with --graph, or run "
+          "--gauge droid without --graph");
     detail::SelfCalibrationRun check(opt.self_calibration);
     if (opt.fps) checkFps(*opt.fps);
     detail::checkCovariancePaths(opt);
@@ -313,6 +325,7 @@ int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
   const ThreadLimit thread_limit(opt.threads);
   try {
     const SnapshotInputs inputs(opt.inputs);
+    inputs.checkDistinctLabels();
     GraphSink* graph = nullptr;
     Run run(opt, makeSinks(opt, engine, &graph), err);
     run.pipeline(inputs, engine);

@@ -1,5 +1,6 @@
 #include "engine_cli.h"
 
+#include <cmath>
 #include <optional>
 #include <sstream>
 
@@ -39,6 +40,18 @@ CLI::Validator integerIn(long long lo, long long hi) {
         return *v < lo || *v > hi ? text + " is not in " + range : std::string();
       },
       "");  // no annotation in --help, as the ranges CLI::Range gave (cli_common.cpp)
+}
+
+CLI::Validator positiveNumber(bool zero_too) {
+  const std::string bound = zero_too ? ">= 0" : "> 0";
+  return CLI::Validator(
+      [zero_too, bound](std::string& text) -> std::string {
+        const std::optional<double> v = readWhole<double>(
+            text, [](const std::string& t, std::size_t* used) { return std::stod(t, used); });
+        const bool ok = v && std::isfinite(*v) && (zero_too ? *v >= 0 : *v > 0);
+        return ok ? std::string() : "'" + text + "' is not a finite number " + bound;
+      },
+      "");
 }
 
 CLI::Validator numberIn(double lo, double hi) {
@@ -104,7 +117,7 @@ CLI::Option* addWeightScaleOption(CLI::App& cli, std::optional<double>& value,
   return cli
       .add_option("--weight-scale", value,
                   "Information per unit confidence, px^-2 (" + default_text + ")")
-      ->check(CLI::PositiveNumber);
+      ->check(detail::positiveNumber());
 }
 
 void addEngineOptions(CLI::App& cli, DbaOptionOverrides& o) {

@@ -37,6 +37,9 @@ std::optional<long long> parseInteger(const std::string& text);
 CLI::Validator integerIn(long long lo, long long hi);
 /// A number in [lo, hi]: "'x' is not a number" or "x is not in [lo, hi]".
 CLI::Validator numberIn(double lo, double hi);
+/// A finite number > 0 (or >= 0 when `zero_too`): "'x' is not a finite number > 0", where
+/// CLI::PositiveNumber printed the largest double in full (309 digits).
+CLI::Validator positiveNumber(bool zero_too = false);
 
 /// Accepts the names of enum E (enum_names.h); an other name fails with parseEnum's message, the
 /// one the library and the Python module give ("unknown gauge 'x', expected two-pose, ...").

@@ -1,5 +1,7 @@
 #include "dbacov/app/evaluate_app.h"
 
+#include <cmath>
+#include <cstdio>
 #include <optional>
 #include <sstream>
 
@@ -52,6 +54,30 @@ Exit status: 0 success, 1 when an input or output failed or nothing could be eva
 usage.)";
 
 /// Checks the combination of options; throws std::invalid_argument with the reason.
+/// Refuses a --body-to-camera that would turn every ground-truth pose into NaN (a non-finite
+/// entry) or into an arbitrary rotation (a quaternion without a direction, which Eigen's
+/// normalized() leaves as it is).
+void checkBodyToCamera(const std::vector<double>& v) {
+  static const char* const names[7] = {"tx", "ty", "tz", "qx", "qy", "qz", "qw"};
+  auto text = [](double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", x);
+    return std::string(buf);
+  };
+  for (int i = 0; i < 7; ++i)
+    if (!std::isfinite(v[i]))
+      throw std::invalid_argument(std::string("--body-to-camera: ") + names[i] + " is " +
+                                  text(v[i]) + ", expected a finite number");
+  // norm() as poseFromTQ's normalization computes it: it underflows to 0 below ~1e-154 and
+  // overflows above ~1e154; stableNorm() is the value to show.
+  const Eigen::Vector4d q(v[3], v[4], v[5], v[6]);
+  if (!(q.norm() > 1e-9) || !std::isfinite(q.norm()))
+    throw std::invalid_argument("--body-to-camera: the quaternion qx qy qz qw = " + text(v[3]) +
+                                " " + text(v[4]) + " " + text(v[5]) + " " + text(v[6]) +
+                                " is no rotation (norm " + text(q.stableNorm()) +
+                                "): give a unit quaternion (0 0 0 1 for none)");
+}
+
 void checkUsage(const EvaluateOptions& o) {
   io::OutputPlan plan;  // no output onto an input or onto another output
   plan.input(o.csv, "--csv");
@@ -105,6 +131,7 @@ void checkUsage(const EvaluateOptions& o) {
         "--align sim3 needs --csv/--relative-csv (a rawlog has no joint covariances)");
   if (!o.body_to_camera.empty() && o.body_to_camera.size() != 7)
     throw std::invalid_argument("--body-to-camera takes 7 numbers: tx ty tz qx qy qz qw");
+  if (!o.body_to_camera.empty()) checkBodyToCamera(o.body_to_camera);
 }
 
 std::vector<ReportSection> fileSections(const EvaluateOptions& o, std::ostream& err,
@@ -270,11 +297,11 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
                  "Image times: tstamp k is line k (seconds, or EuRoC cam0/data.csv in ns)");
   cli.add_option("--time-tolerance", o.time_tolerance,
                  "Seconds within which a ground-truth sample matches (default 1e-3)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(detail::positiveNumber(true));
   cli.add_option(
          "--max-gap", o.max_gap,
          "Interpolate ground truth between samples at most this many seconds apart (default 0.1)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(detail::positiveNumber(true));
   cli.add_option("--align", o.align,
                  "none (estimate in the truth's frame: absolute + relative NEES) or sim3 (per "
                  "snapshot; relative only)")
@@ -287,15 +314,15 @@ std::optional<int> parse(int argc, const char* const* argv, std::ostream& out, s
       ->check(detail::integerIn(1, 1000000));
   cli.add_option("--first-run", o.first_run,
                  "Monte Carlo: index of the first noise draw (default 0)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(detail::positiveNumber(true));
   cli.add_option("--calibration-runs", o.calibration_runs,
                  "Monte Carlo: fit k on the first M runs, evaluate the others")
-      ->check(CLI::NonNegativeNumber);
+      ->check(detail::positiveNumber(true));
   cli.add_flag("--calibrate", o.calibrate,
                "Fit the variance inflation k on the evaluated samples and report before/after");
   cli.add_option("--inflation", o.inflation,
                  "Apply a given variance inflation k (fitted elsewhere)")
-      ->check(CLI::PositiveNumber);
+      ->check(detail::positiveNumber());
   cli.add_option("--json", o.json, "Write the statistics as JSON");
   cli.add_option("--samples-csv", o.samples_csv,
                  "Write every sample: section,run,group,dof,nees,e_0..e_5,sigma_0..sigma_5");

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 #include "dbacov/core/errors.h"
 #include "dbacov/mrpt/bridge.h"
@@ -233,14 +234,36 @@ double KeyframeTimes::operator()(double tstamp) const {
   return times_[static_cast<std::size_t>(i)];
 }
 
+namespace {
+
+/// (snapshot, keyframe or from, to) of a table row.
+using RowKey = std::tuple<std::int64_t, std::int64_t, std::int64_t>;
+
+/// A key seen twice would be scored twice (and with two different covariances, one of them
+/// against the wrong ground truth): the sign of two inputs with one snapshot id in one run.
+void refuseRepeatedKey(std::map<RowKey, std::string>* seen, const RowKey& key,
+                       const std::string& where, const std::string& what) {
+  const auto [it, fresh] = seen->emplace(key, where);
+  if (!fresh)
+    throw InputError(where + ": " + what + " is already at " + it->second +
+                     ": each key may appear once (were two inputs with one snapshot id "
+                     "processed in one run? give each snapshot a distinct id)");
+}
+
+}  // namespace
+
 std::vector<KeyframeCovarianceRow> readKeyframeCsv(const std::string& path) {
   CsvTable t(path, covarianceColumns({"snapshot", "keyframe", "tstamp"}));
   std::vector<KeyframeCovarianceRow> rows;
+  std::map<RowKey, std::string> seen;
   while (t.next()) {
     KeyframeCovarianceRow r;
     r.snapshot = static_cast<std::int64_t>(t.get("snapshot"));
     r.keyframe = static_cast<int>(t.get("keyframe"));
     r.tstamp = t.get("tstamp");
+    refuseRepeatedKey(
+        &seen, {r.snapshot, r.keyframe, 0}, t.where(),
+        "snapshot " + std::to_string(r.snapshot) + ", keyframe " + std::to_string(r.keyframe));
     r.T_wc = t.pose();
     r.Sigma = t.covariance();
     r.where = t.where();
@@ -252,11 +275,15 @@ std::vector<KeyframeCovarianceRow> readKeyframeCsv(const std::string& path) {
 std::vector<RelativeCovarianceRow> readRelativeCsv(const std::string& path) {
   CsvTable t(path, covarianceColumns({"snapshot", "from", "to"}));
   std::vector<RelativeCovarianceRow> rows;
+  std::map<RowKey, std::string> seen;
   while (t.next()) {
     RelativeCovarianceRow r;
     r.snapshot = static_cast<std::int64_t>(t.get("snapshot"));
     r.from = static_cast<int>(t.get("from"));
     r.to = static_cast<int>(t.get("to"));
+    refuseRepeatedKey(&seen, {r.snapshot, r.from, r.to}, t.where(),
+                      "snapshot " + std::to_string(r.snapshot) + ", pair " +
+                          std::to_string(r.from) + " -> " + std::to_string(r.to));
     r.Z = t.pose();
     r.Sigma = t.covariance();
     r.where = t.where();

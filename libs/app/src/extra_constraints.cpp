@@ -1,5 +1,6 @@
 #include "dbacov/app/extra_constraints.h"
 
+#include <climits>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -19,6 +20,9 @@ struct LineParser {
     } catch (const std::exception&) {
     }
     if (used != tok.size() || v < 0) fail("'" + tok + "' is not a node id");
+    if (v > INT_MAX)
+      fail("node id " + tok +
+           " is beyond the ids dbacov handles (0 to 2147483647): it would alias another node");
     if (!nodes.count(static_cast<int>(v))) fail("node " + tok + " is not in the graph");
     return static_cast<int>(v);
   }
@@ -68,9 +72,14 @@ ExtraConstraints readExtraConstraints(const std::string& path,
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open the constraints file");
   ExtraConstraints out;
+  std::map<int, int> absolute_line;  // node → line of its absolute prior
   int line_no = 0;
   for (std::string line; std::getline(in, line);) {
     ++line_no;
+    if (const auto nul = line.find('\0'); nul != std::string::npos)
+      throw InputError(path + ":" + std::to_string(line_no) + ": a NUL byte at column " +
+                       std::to_string(nul + 1) +
+                       ": a constraints file is text; the rest of the line would be lost");
     if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
     std::istringstream ls(line);
     std::vector<std::string> tok;
@@ -89,6 +98,11 @@ ExtraConstraints readExtraConstraints(const std::string& path,
       if (tok.size() < 2) p.fail("'absolute' needs ID, a pose and a covariance");
       AbsolutePrior a;
       a.node = p.node(tok[1], nodes);
+      if (const auto [it, fresh] = absolute_line.emplace(a.node, line_no); !fresh)
+        p.fail("node " + tok[1] + " already has an absolute prior (line " +
+               std::to_string(it->second) +
+               "): give one prior per node (two would be merged silently into their "
+               "information-weighted mean)");
       p.poseAndInformation(p.numbers(tok, 2), &a.T_wc, &a.information);
       out.absolute.push_back(a);
     } else {

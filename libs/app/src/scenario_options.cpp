@@ -26,7 +26,7 @@ void addChecks(CLI::Option* o, const std::string& flag) {
   if (const auto r = integers.find(flag); r != integers.end())
     o->check(detail::integerIn(r->second.first, r->second.second));
   if (flag == "--overlap-threshold") o->check(detail::numberIn(0.0, 1.0));
-  if (flag == "--weight-scale" || flag == "--fps") o->check(CLI::PositiveNumber);
+  if (flag == "--weight-scale" || flag == "--fps") o->check(detail::positiveNumber());
 }
 
 }  // namespace

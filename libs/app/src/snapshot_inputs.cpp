@@ -53,6 +53,56 @@ SnapshotInputs::SnapshotInputs(const std::vector<std::string>& paths) {
       if (!e.error.empty()) throw InputError(e.error);
 }
 
+namespace {
+
+std::string labelClash(std::int64_t label, const std::string& first, const std::string& how_first,
+                       const std::string& second, const std::string& how_second) {
+  return first + " (" + how_first + ") and " + second + " (" + how_second + ") are both snapshot " +
+         std::to_string(label) +
+         ": the outputs name snapshots by it (the tables' snapshot column, --depth-sigma's "
+         "DIR/<snapshot>_<keyframe>.npy), so one would overwrite or duplicate the other; give "
+         "each snapshot a distinct 'id' (e.g. process each run on its own)";
+}
+
+std::string howLabelled(const Snapshot& s) {
+  return s.id ? "id " + std::to_string(*s.id) : "position " + std::to_string(s.index) + ", no id";
+}
+
+}  // namespace
+
+void SnapshotInputs::checkDistinctLabels() const {
+  std::map<std::int64_t, std::pair<std::string, std::string>> seen;  // label → file, how
+  bool positions_known = true;  // until a rawlog, whose snapshot count is unknown
+  for (std::size_t k = 0; k < entries_.size(); ++k) {
+    const Entry& e = entries_[k];
+    if (e.error.empty() && isRawlogPath(e.path)) {
+      positions_known = false;
+      continue;
+    }
+    if (!e.error.empty()) continue;  // a failed input: no snapshot, no output
+    std::optional<std::int64_t> id;
+    try {
+      id = io::readSnapshotId(e.path);
+    } catch (const InputError&) {
+      continue;  // reported by the run, as its snapshot's failure
+    }
+    if (!id && !positions_known) continue;
+    const std::int64_t label = id ? *id : static_cast<std::int64_t>(k);
+    const std::string how =
+        id ? "id " + std::to_string(*id) : "position " + std::to_string(k) + ", no id";
+    const auto [it, fresh] = seen.emplace(label, std::make_pair(e.path, how));
+    if (!fresh)
+      throw InputError(labelClash(label, it->second.first, it->second.second, e.path, how));
+  }
+}
+
+void SnapshotLabels::claim(const Snapshot& s) {
+  const auto [it, fresh] = taken_.emplace(s.label(), std::make_pair(s.source, howLabelled(s)));
+  if (!fresh)
+    throw InputError(
+        labelClash(s.label(), it->second.first, it->second.second, s.source, howLabelled(s)));
+}
+
 std::size_t SnapshotInputs::knownCount() const {
   for (const Entry& e : entries_)
     if (e.error.empty() && isRawlogPath(e.path)) return 0;

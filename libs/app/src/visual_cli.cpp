@@ -6,6 +6,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "engine_cli.h"
+
 namespace dbacov::app::detail {
 
 const char* const kVisualHelp = R"(
@@ -21,7 +23,7 @@ void addVisualOptions(CLI::App& cli, VisualCli& v) {
                  "Render the scene offscreen into this PNG (after the last snapshot)");
   cli.add_option("--snapshot-every", v.scene.every,
                  "Also render OUT_<snapshot>.png after every K-th processed snapshot")
-      ->check(CLI::PositiveNumber);
+      ->check(detail::positiveNumber());
   cli.add_option("--snapshot-size", v.size, "Picture size WxH in pixels (default 1280x720)");
   cli.add_option(
       "--scene-exaggeration", v.exaggeration,
@@ -35,7 +37,7 @@ void addVisualOptions(CLI::App& cli, VisualCli& v) {
                "Add the points of the keyframes' inverse depths to the scene");
   cli.add_option("--point-stride", v.scene.point_stride,
                  "Point cloud: every N-th pixel in x and y (default 4)")
-      ->check(CLI::PositiveNumber);
+      ->check(detail::positiveNumber());
   cli.add_option("--plots", v.plots_dir,
                  "Write the figures (PNG, gnuplot) and their values into this directory");
 }

@@ -452,8 +452,17 @@ SparsifiedGraph sparsifyInformation(const GaugedInformation& info, const Snapsho
   std::unique_ptr<MarginalSolver> solver = makeCholmodMarginalSolver();
   try {
     solver->factorize(info.Lambda);
-  } catch (const FactorizationError&) {
-    throw NumericalError("the sequence information is not positive definite", {});
+  } catch (const FactorizationError& e) {
+    // Λ holds the slots after the root (slot 0, the gauge): column c is slot c / 6 + 1.
+    const int slot = e.column() >= 0 ? e.column() / 6 + 1 : -1;
+    if (slot < 1 || slot >= n_slots)
+      throw NumericalError("the sequence information is not positive definite", {});
+    const int k = info.keyframes[slot];
+    throw NumericalError("the sequence information is not positive definite at keyframe " +
+                             std::to_string(k) +
+                             " (its pose is not determined by the sequence's pixels beyond "
+                             "the keyframes before it in the elimination order)",
+                         {k});
   }
   auto idx = [](int slot) {
     std::vector<int> v(6);

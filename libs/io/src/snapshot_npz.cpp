@@ -146,6 +146,16 @@ Snapshot loadSnapshotNpz(const std::string& path, std::int64_t index) {
   return readSnapshot(path, NpzReader(path), index);
 }
 
+std::optional<std::int64_t> readSnapshotId(const std::string& path) {
+  const NpzReader npz(path);
+  if (!npz.has("id")) return std::nullopt;
+  const NpyArray id = npz.read("id");
+  const std::string context = path + ": key 'id'";
+  if (!id.shape.empty() && id.shape != std::vector<std::size_t>{1})
+    throw InputError(context + " has shape " + shapeToString(id.shape) + ", expected () or (1,)");
+  return npyToInt64s(id, context).at(0);
+}
+
 Snapshot loadSnapshotNpzFromMemory(const std::string& name, std::vector<unsigned char> bytes,
                                    std::int64_t index) {
   return readSnapshot(name, NpzReader::fromMemory(name, std::move(bytes)), index);

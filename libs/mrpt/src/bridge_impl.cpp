@@ -1,5 +1,7 @@
 // The implementation of the MRPT bridge (bridge.h) on top of the MRPT-facing files of this
 // library; mrptBridge() (api/bridge_loader.cpp) finds it through the C entry point at the end.
+#include "levmarq_node_index.h"  // before MRPT's levmarq: its free-node look-up
+
 #include <mrpt/graphslam/levmarq.h>
 #include <mrpt/obs/CObservationRobotPose.h>
 #include <mrpt/obs/CSensoryFrame.h>
@@ -153,8 +155,12 @@ class BridgeImpl final : public Bridge {
     mrpt::graphslam::TResultInfoSpaLevMarq info;
     mrpt::containers::yaml params;
     params["max_iterations"] = max_iterations;
+    std::set<mrpt::graphs::TNodeID> free;  // what MRPT builds itself without this argument
+    for (const auto& [id, pose] : net.nodes)
+      if (id != net.root) free.insert(free.end(), id);
     try {
-      mrpt::graphslam::optimize_graph_spa_levmarq(net, info, nullptr, params);
+      const FreeNodeIndex index(free);
+      mrpt::graphslam::optimize_graph_spa_levmarq(net, info, &free, params);
     } catch (const std::exception& e) {
       throw NumericalError("MRPT's optimizer failed: " + conciseMrptMessage(e.what()), {});
     }

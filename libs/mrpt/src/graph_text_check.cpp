@@ -1,7 +1,8 @@
 // checkGraphText: the lines of an MRPT text graph that MRPT's loader would misread silently
 // (refused instead). MRPT 2.5 turns an edge whose information is missing, too short, NaN/inf or not
-// a number into an identity information matrix with a warning, and node ids beyond 32 bits alias
-// other nodes in dbacov's int ids: refuse them, naming file, line and edge.
+// a number into an identity information matrix with a warning, drops self-edges and whatever
+// follows a NUL byte, and node ids beyond 32 bits alias other nodes in dbacov's int ids: refuse
+// them, naming file, line and edge.
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -46,6 +47,10 @@ void checkGraphText(const std::string& path) {
   if (!in) return;  // MRPT's loader reports it
   std::string line;
   for (long long n = 1; std::getline(in, line); ++n) {
+    if (const auto nul = line.find('\0'); nul != std::string::npos)
+      throw InputError(
+          path + ":" + std::to_string(n) + ": a NUL byte at column " + std::to_string(nul + 1) +
+          ": a text graph holds no NUL; MRPT's loader would drop the rest of the line");
     std::istringstream ls(line);
     std::vector<std::string> t;
     for (std::string x; ls >> x;) t.push_back(x);
@@ -74,12 +79,15 @@ void checkGraphText(const std::string& path) {
                        (pose ? ", " + std::to_string(pose) + " pose values" : std::string()) +
                        (edge ? ", 21 information entries" : "") + "), found " +
                        std::to_string(t.size() - 1));
+    long long id[2] = {0, 0};
     for (std::size_t i = 1; i <= ids; ++i) {
-      long long id = 0;
-      if (!parseId(t[i], &id))
+      if (!parseId(t[i], &id[i - 1]))
         throw InputError(what + ": node id '" + t[i] + "' is not a non-negative integer");
-      checkNodeId(static_cast<unsigned long long>(id), what);
+      checkNodeId(static_cast<unsigned long long>(id[i - 1]), what);
     }
+    if (edge && id[0] == id[1])
+      throw InputError(what + ": joins node " + std::to_string(id[0]) +
+                       " to itself; an edge needs two nodes (MRPT's loader drops it silently)");
     for (std::size_t i = 1 + ids; i < t.size(); ++i)
       if (!parseFinite(t[i])) {
         const bool info = i >= 1 + ids + pose;

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,6 +19,17 @@ class SnapshotRawlogReader;
 namespace dbacov::app {
 
 struct SnapshotItem;
+
+/// The labels of the snapshots a run has taken so far, for the inputs whose labels cannot be known
+/// before they are read (rawlogs): claim() throws InputError naming both sources when a label is
+/// taken twice.
+class SnapshotLabels {
+ public:
+  void claim(const Snapshot& s);
+
+ private:
+  std::map<std::int64_t, std::pair<std::string, std::string>> taken_;  ///< label → source, how
+};
 
 class SnapshotInputs {
  public:
@@ -36,6 +48,15 @@ class SnapshotInputs {
     std::string error;
   };
   const std::vector<Entry>& entries() const { return entries_; }
+
+  /// Outputs name a snapshot by its label (its `id` key, else its position in the input): the
+  /// tables' `snapshot` column, `--depth-sigma`'s DIR/<label>_<keyframe>.npy, the rawlog labels.
+  /// Two `.npz` inputs with one label (two runs both numbered from 0) would overwrite or
+  /// duplicate each other's rows and files: InputError naming both files and the label, before
+  /// anything is computed. Reads only the `id` key of each `.npz` (an unreadable file is left to
+  /// the run, which reports it); labels inside rawlogs are checked as they are read
+  /// (SnapshotLabels).
+  void checkDistinctLabels() const;
 
   /// Reads the snapshots one at a time (see SnapshotStream), in order, and hands each to
   /// `process`. The n-th snapshot (0-based over all inputs, failures included) gets index n. A

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,11 @@ namespace dbacov::io {
 
 /// Loads and validates the snapshot in `path`; sets `source` = path and `index` = index.
 Snapshot loadSnapshotNpz(const std::string& path, std::int64_t index);
+
+/// The `id` key of the snapshot in `path` alone (a few bytes of the archive), without reading or
+/// checking the other keys; nullopt when the archive has no `id`. InputError when the archive
+/// cannot be read or its `id` is not one integer.
+std::optional<std::int64_t> readSnapshotId(const std::string& path);
 /// The same for the bytes of a `.npz` file held in memory; `name` stands for the path (in
 /// messages and as `source`).
 Snapshot loadSnapshotNpzFromMemory(const std::string& name, std::vector<unsigned char> bytes,
