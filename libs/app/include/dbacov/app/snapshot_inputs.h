@@ -50,7 +50,7 @@ class SnapshotInputs {
   const std::vector<Entry>& entries() const { return entries_; }
 
   /// Outputs name a snapshot by its label (its `id` key, else its position in the input): the
-  /// tables' `snapshot` column, `--depth-sigma`'s DIR/<label>_<keyframe>.npy, the rawlog labels.
+  /// tables' `snapshot` column, `--depth-sigma`'s `DIR/LABEL_KEYFRAME.npy`, the rawlog labels.
   /// Two `.npz` inputs with one label (two runs both numbered from 0) would overwrite or
   /// duplicate each other's rows and files: InputError naming both files and the label, before
   /// anything is computed. Reads only the `id` key of each `.npz` (an unreadable file is left to
