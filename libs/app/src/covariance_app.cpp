@@ -237,7 +237,7 @@ class Run {
       for (const auto& sink : sinks_) sink->verify(s, *cov);
       item.cov = std::move(cov);
     } catch (const std::exception& e) {
-      item.error = e.what();
+      item.error = failureMessage(e);
       item.error_kind = classifyFailure(e, false);
     }
   }

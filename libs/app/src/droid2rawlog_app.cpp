@@ -117,7 +117,7 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
             if (fps) deriveKeyframeTimes(s, *fps, start_time);
             time = keyframeTime(s, newestKeyframe(s));
           } catch (const std::exception& e) {
-            return report(classifyFailure(e, false), s.source, s.name() + ": " + e.what());
+            return report(classifyFailure(e, false), s.source, s.name() + ": " + failureMessage(e));
           }
           // A write error ends the run: the rawlog would be damaged.
           writer->write(std::move(s), time, label);

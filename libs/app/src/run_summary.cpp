@@ -1,5 +1,6 @@
 #include "dbacov/app/run_summary.h"
 
+#include <new>
 #include <stdexcept>
 
 #include "dbacov/core/errors.h"
@@ -34,6 +35,8 @@ const char* failureKindName(FailureKind kind) {
       return "numerical";
     case FailureKind::Output:
       return "output";
+    case FailureKind::OutOfMemory:
+      return "out of memory";
     case FailureKind::Internal:
       return "internal error";
   }
@@ -47,7 +50,15 @@ FailureKind classifyFailure(const std::exception& e, bool writing) {
     return FailureKind::Numerical;
   if (dynamic_cast<const InputError*>(&e))
     return writing ? FailureKind::Output : FailureKind::InvalidInput;
+  if (dynamic_cast<const std::bad_alloc*>(&e)) return FailureKind::OutOfMemory;
   return FailureKind::Internal;
+}
+
+std::string failureMessage(const std::exception& e) {
+  if (dynamic_cast<const std::bad_alloc*>(&e))
+    return "out of memory: the process could not allocate what this snapshot needs (a lower "
+           "DBACOV_MEMORY_BUDGET refuses such inputs before reading them)";
+  return e.what();
 }
 
 void RunSummary::fail(FailureKind kind, const std::string& snapshot, const std::string& message) {

@@ -126,7 +126,7 @@ namespace {
 
 /// Records the exception `e` as the failure of `item`.
 void setError(SnapshotItem* item, const std::exception& e, const std::string& source) {
-  item->error = e.what();
+  item->error = failureMessage(e);
   item->source = source;
   item->kind = classifyFailure(e, false);
 }

@@ -13,6 +13,7 @@
 
 #include "dbacov/core/parallel.h"
 #include "dbacov/io/atomic_file.h"
+#include "dbacov/io/memory_budget.h"
 #include "member_inflate.h"
 #include "npy_internal.h"
 
@@ -244,7 +245,37 @@ NpyArray NpzReader::read(const std::string& key) const {
   return a ? std::move(*a) : readStreaming(key);
 }
 
+void NpzReader::checkBudget(const std::vector<std::string>& keys) const {
+  // The members' declared sizes, summed before anything is inflated: each may be plausible alone
+  // (deflate packs a constant plane 1000:1) while together they would exhaust the memory.
+  zip_t* za = impl_->zip.get();
+  std::uint64_t total = 0, largest = 0;
+  std::string largest_key;
+  for (const std::string& key : keys) {
+    const zip_int64_t index = zip_name_locate(za, (key + kSuffix).c_str(), 0);
+    zip_stat_t st;
+    zip_stat_init(&st);
+    if (index < 0 || zip_stat_index(za, static_cast<zip_uint64_t>(index), 0, &st) != 0 ||
+        !(st.valid & ZIP_STAT_SIZE))
+      continue;  // fetch() reports it
+    total += std::min<std::uint64_t>(st.size, std::uint64_t{1} << 62);
+    if (st.size > largest) {
+      largest = st.size;
+      largest_key = key;
+    }
+  }
+  const std::uint64_t budget = memoryBudgetBytes();
+  if (total > budget)
+    throw InputError(impl_->path + ": its arrays declare " + sizeText(total) +
+                     " uncompressed (the largest, key '" + largest_key + "', " + sizeText(largest) +
+                     "; the archive itself is " + sizeText(impl_->file_size) +
+                     "), more than the memory budget of " + sizeText(budget) +
+                     " (a third of this process's memory, at most 4 GiB; the environment "
+                     "variable DBACOV_MEMORY_BUDGET, e.g. 16G, sets another)");
+}
+
 std::vector<NpyArray> NpzReader::readAll(const std::vector<std::string>& keys) const {
+  checkBudget(keys);
   // The archive handle is serial: fetch the raw members in order (stopping at the first failure),
   // then inflate and parse them in parallel. The first failure in key order is the one reported,
   // as a serial read() of each key would.

@@ -27,10 +27,6 @@ class SnapshotReader {
   std::vector<NpyArray> readAll(const std::vector<std::string>& keys) const {
     return npz_.readAll(keys);
   }
-  std::optional<NpyArray> optional(const std::string& key) const {
-    if (!npz_.has(key)) return std::nullopt;
-    return npz_.read(key);
-  }
 
   /// Throws unless a.shape == expected. `pattern` is the symbolic shape ("(E,2,H,W)"), shown when
   /// even the number of dimensions is wrong; `why` says where the sizes come from.
@@ -70,20 +66,26 @@ Snapshot readSnapshot(const std::string& path, NpzReader npz, std::int64_t index
   std::vector<std::string> keys = {"poses", "disps",  "intrinsics", "ii",
                                    "jj",    "target", "weight",     "tstamp"};
   for (const std::string& key : keys) r.requireKey(key);
-  const bool has_timestamps = r.hasKey("timestamps_s"), has_id = r.hasKey("id");
-  if (has_timestamps) keys.push_back("timestamps_s");
-  if (has_id) keys.push_back("id");
+  // The optional keys: RGB-D (disps_sens), stereo (stereo_rig), DROID's gauge (t0), the times and
+  // the label. Read with the others so that their sizes count against the same memory budget.
+  const std::vector<std::string> optional_keys = {"timestamps_s", "id", "disps_sens", "stereo_rig",
+                                                  "t0"};
+  const std::size_t required = keys.size();
+  for (const std::string& key : optional_keys)
+    if (r.hasKey(key)) keys.push_back(key);
   std::vector<NpyArray> arrays = r.readAll(keys);
   const NpyArray poses = std::move(arrays[0]), disps = std::move(arrays[1]),
                  intrinsics = std::move(arrays[2]), ii = std::move(arrays[3]),
                  jj = std::move(arrays[4]), target = std::move(arrays[5]),
                  weight = std::move(arrays[6]), tstamp = std::move(arrays[7]);
-  std::optional<NpyArray> timestamps_s, id;
-  if (has_timestamps) timestamps_s = std::move(arrays[8]);
-  if (has_id) id = std::move(arrays[has_timestamps ? 9 : 8]);
-  // The keys of RGB-D (disps_sens), stereo (stereo_rig) and DROID's gauge (t0): small or rare.
-  const std::optional<NpyArray> disps_sens = r.optional("disps_sens"),
-                                stereo_rig = r.optional("stereo_rig"), t0 = r.optional("t0");
+  auto optional = [&](const std::string& key) -> std::optional<NpyArray> {
+    for (std::size_t i = required; i < keys.size(); ++i)
+      if (keys[i] == key) return std::move(arrays[i]);
+    return std::nullopt;
+  };
+  const std::optional<NpyArray> timestamps_s = optional("timestamps_s"), id = optional("id"),
+                                disps_sens = optional("disps_sens"),
+                                stereo_rig = optional("stereo_rig"), t0 = optional("t0");
 
   // Shapes first (cheap, and the most useful message), then dtypes through the conversions.
   r.expectNdim("poses", poses, 2, "(N,7)");

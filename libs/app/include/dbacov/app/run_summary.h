@@ -16,15 +16,19 @@ enum class FailureKind {
   InvalidInput,  ///< unreadable, damaged or invalid snapshot (dbacov::InputError while reading)
   Numerical,     ///< a valid snapshot without covariances (dbacov::NumericalError)
   Output,        ///< its results could not be written (dbacov::InputError while writing)
-  Internal,      ///< anything else (a bug, or memory exhausted)
+  OutOfMemory,   ///< std::bad_alloc: the snapshot needs more memory than the process may use
+  Internal,      ///< anything else (a bug)
 };
 
-/// "invalid input", "numerical", "output", "internal error".
+/// "invalid input", "numerical", "output", "out of memory", "internal error".
 const char* failureKindName(FailureKind kind);
 
 /// The kind of the exception `e` thrown while reading/computing (`writing` false) or while
 /// writing the results (`writing` true).
 FailureKind classifyFailure(const std::exception& e, bool writing);
+
+/// The message of `e` for the user: e.what(), except for std::bad_alloc, whose what() says nothing.
+std::string failureMessage(const std::exception& e);
 
 /// What one failure does to the run.
 enum class FailurePolicy {

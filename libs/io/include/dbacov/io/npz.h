@@ -15,7 +15,9 @@
 //     that fails is read again through libzip's stream, whose message says where it breaks.
 //   - readAll(keys) reads several members: the raw bytes in order, then inflation and parsing in
 //     parallel (dbacov::parallelFor, within the ThreadLimit); it reports the failure that reading
-//     the keys one by one would report first.
+//     the keys one by one would report first. Before any of that, the members' declared
+//     uncompressed sizes together must fit the memory budget (memory_budget.h); the message says
+//     how much they declare and which member is the largest.
 //   - Not thread-safe (one libzip handle); use one reader per thread.
 //
 // NpzWriter contract: collects arrays, then commit() writes the archive atomically (see
@@ -67,6 +69,8 @@ class NpzReader {
   std::vector<NpyArray> readAll(const std::vector<std::string>& keys) const;
 
  private:
+  /// InputError when the members `keys` declare more than memoryBudgetBytes() together.
+  void checkBudget(const std::vector<std::string>& keys) const;
   /// InputError when two members share a name (constructors call it).
   void checkUniqueMembers() const;
   struct Impl;
