@@ -207,6 +207,45 @@ TEST(PathClashes, TwoOutputsOnOneFileAreRefused) {
   EXPECT_EQ(treeOf(w.dir.path()), before);
 }
 
+TEST(PathClashes, NamesLongerThanTheFileSystemAllowsAreRefusedBeforeTheWork) {
+  Workspace w;
+  const auto before = treeOf(w.dir.path());
+  const std::string name(256, 'n'), longest(255 - 4, 'n');
+  auto tooLong = [&](const std::string& option, const std::string& path) {
+    return option + " " + path + ": the name '" + name.substr(0, 40) + "...' is " +
+           std::to_string(path.size() - path.rfind('/') - 1) +
+           " bytes long, more than the 255 its file system allows: choose a shorter name";
+  };
+  struct Case {
+    std::vector<std::string> args;
+    std::string message;
+  };
+  for (const Case& c : std::vector<Case>{
+           {{"--csv", w.f(name + ".csv")}, tooLong("--csv", w.f(name + ".csv"))},
+           {{"-o", w.f(name)}, tooLong("-o", w.f(name))},
+           // --graph PREFIX: the first of its four files whose name is too long.
+           {{"--graph", w.f(longest)}, tooLong("--graph", w.f(longest + ".graphbin"))},
+       }) {
+    SCOPED_TRACE(c.args[0]);
+    std::vector<std::string> args{"-i", w.f("v.npz")};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const AppResult r = covariance(args);
+    EXPECT_EQ(r.code, 2);
+    EXPECT_EQ(r.err, usage("dba-covariance", c.message));
+    EXPECT_EQ(treeOf(w.dir.path()), before);
+  }
+  // A name of exactly 255 bytes is a name like any other.
+  EXPECT_EQ(covariance({"-i", w.f("v.npz"), "--csv", w.f(longest + ".csv"), "-q"}).code, 0);
+  EXPECT_TRUE(fs::exists(w.f(longest + ".csv")));
+  fs::remove(w.f(longest + ".csv"));
+  // The other apps' outputs go through the same plan.
+  const AppResult r = testing::runApp(app::runPoseGraphApp, "dba-posegraph",
+                                      {"-g", w.f("g.graphbin"), "-o", w.f(name)});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, usage("dba-posegraph", tooLong("-o", w.f(name))));
+  EXPECT_EQ(treeOf(w.dir.path()), before);
+}
+
 TEST(PathClashes, GraphPrefixThatNamesADirectoryIsRefused) {
   Workspace w;
   fs::create_directory(w.f("d"));

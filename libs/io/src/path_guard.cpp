@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <climits>
 #include <cstring>
 #include <filesystem>
 
@@ -51,6 +52,39 @@ std::string describe(const std::string& option, const std::string& path) {
   return option + " " + path;
 }
 
+/// Throws InputError when a component of `path` is longer than its file system allows (or the
+/// whole path longer than PATH_MAX): caught here, before the work, not at the commit after it.
+void checkNameLengths(const std::string& option, const std::string& path) {
+  if (path.size() >= PATH_MAX)
+    throw InputError(describe(option, path.substr(0, 60) + "...") + ": the path is " +
+                     std::to_string(path.size()) + " bytes long, more than the " +
+                     std::to_string(PATH_MAX - 1) + " the system allows: choose a shorter path");
+  std::string parent = ".";
+  std::size_t begin = 0;
+  if (!path.empty() && path[0] == '/') {
+    parent = "/";
+    begin = 1;
+  }
+  while (begin < path.size()) {
+    std::size_t end = path.find('/', begin);
+    if (end == std::string::npos) end = path.size();
+    const std::size_t length = end - begin;
+    if (length > 0) {
+      // The directory may not exist yet (the run's error is then another); 255 is Linux's NAME_MAX
+      // on every common file system.
+      long max = ::pathconf(parent.c_str(), _PC_NAME_MAX);
+      if (max <= 0) max = NAME_MAX;
+      if (length > static_cast<std::size_t>(max))
+        throw InputError(describe(option, path) + ": the name '" + path.substr(begin, 40) +
+                         "...' is " + std::to_string(length) + " bytes long, more than the " +
+                         std::to_string(max) + " its file system allows: choose a shorter name");
+    }
+    parent = path.substr(0, end);
+    if (parent.empty()) parent = "/";
+    begin = end + 1;
+  }
+}
+
 }  // namespace
 
 std::string resolveOutputTarget(const std::string& path) {
@@ -95,6 +129,8 @@ void OutputPlan::outputDirectory(const std::string& path, const std::string& opt
 }
 
 void OutputPlan::check() const {
+  for (const Entry& o : outputs_) checkNameLengths(o.option, o.path);
+  for (const Entry& d : output_dirs_) checkNameLengths(d.option, d.path);
   std::vector<Identity> in;
   for (const Entry& e : inputs_) in.push_back(identify(e.path));
   auto clashWithInput = [&](const Entry& o, const Identity& id) {
