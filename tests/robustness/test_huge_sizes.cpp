@@ -2,12 +2,18 @@
 // are refused before anything of that size is allocated: each case names the file and what was
 // wrong, and the largest single allocation made while reading it stays small
 // (largest_allocation.h).
+#include <cstdlib>
 #include <filesystem>
+#include <regex>
 
 #include <gtest/gtest.h>
 #include <mrpt/obs/CSensoryFrame.h>
 
+#include "app_runner.h"
 #include "bad_inputs.h"
+#include "dbacov/app/covariance_app.h"
+#include "dbacov/app/simul_app.h"
+#include "dbacov/io/memory_budget.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/mrpt/rawlog_io.h"
 #include "fixtures.h"
@@ -187,6 +193,93 @@ TEST(HugeSizes, SensoryFrameDeclaringBillionsOfObservationsIsRefusedBeforeAlloca
                          ": entry 0 cannot be read: CSensoryFrame declares 4278124286 "
                          "observations, more than the 65536 accepted");
   EXPECT_LT(largest, kMiB);
+}
+
+/// Sets an environment variable for the scope.
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const char* value) : name_(name) { ::setenv(name, value, 1); }
+  ~ScopedEnv() { ::unsetenv(name_); }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  const char* name_;
+};
+
+/// A deflate bomb: a valid two-keyframe snapshot on a 256×256 grid of constant planes, which
+/// deflate packs about 1000:1 (~2.6 MB of arrays in ~10 kB).
+std::string writeDeflateBomb(const testing::TempDir& dir) {
+  Snapshot s = testing::tinySnapshot(1, 1, 2).snapshot;
+  s.H = s.W = 256;
+  const std::size_t plane = 256 * 256, N = static_cast<std::size_t>(s.numKeyframes()),
+                    E = static_cast<std::size_t>(s.numEdges());
+  s.disps.assign(N * plane, 0.5f);
+  s.target.assign(E * 2 * plane, 1.f);
+  s.weight.assign(E * 2 * plane, 1.f);
+  const std::string path = dir.file("bomb.npz");
+  io::saveSnapshotNpz(path, s);
+  return path;
+}
+
+TEST(HugeSizes, DeflateBombIsRefusedByTheMemoryBudgetBeforeInflating) {
+  testing::TempDir dir;
+  const std::string path = writeDeflateBomb(dir);
+  ASSERT_LT(std::filesystem::file_size(path), 100'000u);
+  {
+    const ScopedEnv budget("DBACOV_MEMORY_BUDGET", "1M");
+    const auto [message, largest] = npzRefusal(path);
+    EXPECT_EQ(std::regex_replace(message, std::regex("[0-9.]+ (kB|MB)"), "#"),
+              path +
+                  ": its arrays declare # uncompressed (the largest, key 'target', #; the "
+                  "archive itself is #), more than the memory budget of # (a third of this "
+                  "process's memory, at most 4 GiB; the environment variable "
+                  "DBACOV_MEMORY_BUDGET, e.g. 16G, sets another)");
+    EXPECT_NE(message.find("budget of 1.0 MB"), std::string::npos) << message;
+    EXPECT_LT(largest, kMiB);
+    // The CLI: that message, exit 1 (every snapshot failed), no output written.
+    const auto r = testing::runApp(app::runCovarianceApp, "dba-covariance",
+                                   {"-i", path, "--csv", dir.file("k.csv")});
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("more than the memory budget of 1.0 MB"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("k.csv")));
+  }
+  // Without the budget's override the same file is an ordinary snapshot.
+  EXPECT_NO_THROW(io::loadSnapshotNpz(path, 0));
+}
+
+TEST(HugeSizes, SimulatorRefusesASnapshotBeyondTheMemoryBudgetBeforeTheWork) {
+  testing::TempDir dir;
+  const ScopedEnv budget("DBACOV_MEMORY_BUDGET", "100K");
+  const auto r = testing::runApp(app::runSimulApp, "simul-dba",
+                                 {"-o", dir.file("w"), "--mode", "whole", "--keyframes", "8"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(std::regex_replace(r.err, std::regex("[0-9]+ edges|[0-9.]+ (kB|MB)"), "#"),
+            "simul-dba: error: snapshot 0 would hold # of arrays (8 keyframes, # on a 48x64 "
+            "grid), more than the memory budget of # (DBACOV_MEMORY_BUDGET sets it): ask for "
+            "fewer keyframes, a smaller grid or --mode sliding-window\n");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("w")));
+}
+
+TEST(HugeSizes, MemoryBudgetIsASizeOrTheRunStops) {
+  EXPECT_GT(io::memoryBudgetBytes(), 0u);
+  EXPECT_LE(io::memoryBudgetBytes(), io::kDefaultMemoryBudget);
+  for (const char* bad : {"0", "-1", "lots", "8Q", "nan", "1e40"}) {
+    const ScopedEnv budget("DBACOV_MEMORY_BUDGET", bad);
+    try {
+      io::memoryBudgetBytes();
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), std::string("DBACOV_MEMORY_BUDGET='") + bad +
+                                           "' is not a size (bytes, or a number with a K, M, G "
+                                           "or T suffix, e.g. 8G)");
+    }
+  }
+  const ScopedEnv budget("DBACOV_MEMORY_BUDGET", "1.5G");
+  EXPECT_EQ(io::memoryBudgetBytes(), std::uint64_t{3} << 29);
+  EXPECT_EQ(io::sizeText(17), "17 bytes");
+  EXPECT_EQ(io::sizeText(5'312'000'000), "5.3 GB");
+  EXPECT_EQ(io::sizeText(812'400'000), "812 MB");
 }
 
 }  // namespace huge_sizes

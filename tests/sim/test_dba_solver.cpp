@@ -283,5 +283,29 @@ TEST(DbaSolver, StopsAtMaxIterationsAndSaysSo) {
   EXPECT_NE(sum.brief().find("max iterations"), std::string::npos);
 }
 
+TEST(DbaSolver, ReportsEachIterationAndStopsWhenTheReportThrows) {
+  Snapshot s = perturbed(3);
+  DbaSolverOptions so;
+  std::vector<DbaSolverSummary> seen;
+  so.on_iteration = [&](const DbaSolverSummary& it) { seen.push_back(it); };
+  const DbaSolverSummary sum = solveDba(s, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0), so);
+  // After every iteration but the last (whose summary the solve returns).
+  ASSERT_EQ(static_cast<int>(seen.size()), sum.iterations - 1);
+  ASSERT_GE(seen.size(), 2u);
+  for (std::size_t k = 0; k < seen.size(); ++k) {
+    EXPECT_EQ(seen[k].iterations, static_cast<int>(k) + 1);
+    EXPECT_EQ(seen[k].initial_cost, sum.initial_cost);
+    EXPECT_LE(seen[k].final_cost, k ? seen[k - 1].final_cost : sum.initial_cost);
+  }
+  EXPECT_LE(sum.final_cost, seen.back().final_cost);
+  // An exception from the report ends the solve (a user's interrupt, a time limit).
+  Snapshot t = perturbed(3);
+  so.on_iteration = [](const DbaSolverSummary& it) {
+    if (it.iterations == 2) throw std::runtime_error("stop at 2");
+  };
+  EXPECT_THROW(solveDba(t, gaugeOptions(GaugeOptions::Type::TwoPose, 0, 0), so),
+               std::runtime_error);
+}
+
 }  // namespace
 }  // namespace dbacov

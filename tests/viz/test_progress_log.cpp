@@ -13,6 +13,7 @@
 #include "app_runner.h"
 #include "dbacov/app/covariance_app.h"
 #include "dbacov/app/progress.h"
+#include "dbacov/app/simul_app.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "temp_dir.h"
 #include "viz_fixtures.h"
@@ -53,6 +54,29 @@ TEST(ProgressLog, OneLinePerPeriodOnAnInjectedClock) {
             "progress: 3/10 snapshots (30%), 0.5 snapshots/s, 6 s elapsed, ~14 s left\n"
             "progress: 6/10 snapshots (60%), 0.5 snapshots/s, 12 s elapsed, ~8 s left\n"
             "progress: 9/10 snapshots (90%), 0.5 snapshots/s, 18 s elapsed, ~2 s left\n");
+}
+
+TEST(ProgressLog, StatusOfOneLongItemEndsTheLogLine) {
+  double t = 0;
+  Progress::Display d;
+  d.log = true;
+  d.log_period_s = 5;
+  d.clock = [&] { return t; };
+  std::ostringstream err;
+  {
+    Progress p(err, 1, d);
+    p.step("snapshot_0000.npz");
+    for (int it = 1; it <= 4; ++it) {
+      t += 3;
+      p.status("snapshot_0000.npz: DBA solve, iteration " + std::to_string(it));
+    }
+  }
+  // Lines at t = 6 and 12 (5 s after the start, then after the previous line).
+  EXPECT_EQ(err.str(),
+            "progress: 0/1 snapshots (0%), 6 s elapsed: snapshot_0000.npz: DBA solve, iteration "
+            "2\n"
+            "progress: 0/1 snapshots (0%), 12 s elapsed: snapshot_0000.npz: DBA solve, iteration "
+            "4\n");
 }
 
 /// Runs `body` with file descriptor 2 replaced by `fd`.
@@ -97,6 +121,28 @@ TEST(ProgressLog, DbaCovarianceWithStderrInAFilePrintsProgressLines) {
   EXPECT_EQ(lines[3].rfind("dba-covariance: 3 snapshots read, 3 processed", 0), 0u) << lines[3];
   EXPECT_EQ(quiet.code, 0);
   EXPECT_EQ(quiet.err, "") << "-q";
+}
+
+TEST(ProgressLog, SimulatingAWholeTrajectoryShowsTheSolvesIterations) {
+  testing::TempDir dir;
+  const int log = ::open(dir.file("stderr.log").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  ASSERT_GE(log, 0);
+  ::setenv("DBACOV_PROGRESS_PERIOD", "0", 1);
+  testing::AppResult r;
+  withStderr(log, [&] {
+    r = testing::runApp(app::runSimulApp, "simul-dba",
+                        {"-o", dir.file("w"), "--mode", "whole", "--keyframes", "8", "--width",
+                         "16", "--height", "12"});
+  });
+  ::unsetenv("DBACOV_PROGRESS_PERIOD");
+  ::close(log);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto lines = testing::splitLines(r.err);
+  ASSERT_GE(lines.size(), 3u) << r.err;
+  EXPECT_EQ(lines[0].rfind("progress: 0/1 snapshots (0%), ", 0), 0u) << lines[0];
+  EXPECT_NE(lines[1].find(" elapsed: snapshot_0000.npz: DBA solve, iteration 1, cost "),
+            std::string::npos)
+      << lines[1];
 }
 
 }  // namespace

@@ -111,12 +111,23 @@ Progress::~Progress() {
 
 void Progress::step(const std::string& label) {
   ++started_;
+  show(label, false);
+}
+
+void Progress::status(const std::string& label) {
+  show(label, true);
+}
+
+void Progress::show(const std::string& label, bool with_label_in_log) {
+  const std::size_t done = started_ > 0 ? started_ - 1 : 0;
   if (display_.log) {
     const double t = now();
     // One line per period: the first after one period, then one period after the previous line.
     if (t - last_ < display_.log_period_s) return;
     last_ = t;
-    err_ << formatLogLine(started_ - 1, total_, t - start_, display_.unit) << '\n' << std::flush;
+    err_ << formatLogLine(done, total_, t - start_, display_.unit)
+         << (with_label_in_log ? ": " + label : "") << '\n'
+         << std::flush;
     return;
   }
   if (!display_.terminal) return;
@@ -126,8 +137,7 @@ void Progress::step(const std::string& label) {
   last_ = t;
   const double elapsed = t - start_;
   // Keep one column free: a line exactly as wide as the terminal wraps on some terminals.
-  err_ << "\r\033[K" << formatLine(started_ - 1, total_, elapsed, label, terminalWidth() - 1)
-       << std::flush;
+  err_ << "\r\033[K" << formatLine(done, total_, elapsed, label, terminalWidth() - 1) << std::flush;
   drawn_ = true;
 }
 

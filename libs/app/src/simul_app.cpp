@@ -13,6 +13,7 @@
 #include "dbacov/app/scenario_options.h"
 #include "dbacov/core/threads.h"
 #include "dbacov/io/atomic_file.h"
+#include "dbacov/io/memory_budget.h"
 #include "dbacov/io/snapshot_npz.h"
 #include "dbacov/mrpt/bridge.h"
 #include "dbacov/sim/scenario.h"
@@ -55,6 +56,34 @@ bad usage.)";
 
 }  // namespace
 
+namespace {
+
+/// Throws InputError, before any work, when a snapshot of `sc` would hold more arrays than a
+/// reader accepts (io::memoryBudgetBytes): a whole trajectory of thousands of keyframes or the
+/// largest grids.
+void checkSnapshotSizes(const sim::Scenario& sc) {
+  const sim::ScenarioConfig& c = sc.config();
+  const std::uint64_t plane = static_cast<std::uint64_t>(c.camera.H) * c.camera.W * 4;
+  const std::uint64_t budget = io::memoryBudgetBytes();
+  for (int s = 0; s < sc.numSnapshots(); ++s) {
+    const std::uint64_t edges = sc.edges(s).size();
+    const std::uint64_t keyframes = c.mode == sim::SimulationMode::WholeTrajectory
+                                        ? static_cast<std::uint64_t>(sc.numKeyframes())
+                                        : static_cast<std::uint64_t>(s + c.window);
+    const std::uint64_t bytes = edges * 4 * plane + keyframes * 2 * plane;
+    if (bytes > budget)
+      throw InputError("snapshot " + std::to_string(s) + " would hold " + io::sizeText(bytes) +
+                       " of arrays (" + std::to_string(keyframes) + " keyframes, " +
+                       std::to_string(edges) + " edges on a " + std::to_string(c.camera.H) + "x" +
+                       std::to_string(c.camera.W) + " grid), more than the memory budget of " +
+                       io::sizeText(budget) +
+                       " (DBACOV_MEMORY_BUDGET sets it): ask for fewer keyframes, a smaller grid "
+                       "or --mode sliding-window");
+  }
+}
+
+}  // namespace
+
 int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
   std::string out_dir, rawlog_path, label = "DBA_SNAPSHOT";
   std::uint64_t run = 0;
@@ -89,7 +118,17 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
 
   int written = 0, failed = 0, not_converged = 0, max_iterations = 0;
   try {
+    // A long solve (a whole trajectory of thousands of keyframes) shows its iterations.
+    Progress* shown = nullptr;
+    std::string current;
+    config.solver.on_iteration = [&](const DbaSolverSummary& it) {
+      char text[96];
+      std::snprintf(text, sizeof text, ": DBA solve, iteration %d, cost %.4g", it.iterations,
+                    it.final_cost);
+      if (shown) shown->status(current + text);
+    };
     const sim::Scenario sc(config);
+    checkSnapshotSizes(sc);
     std::error_code ec;
     std::filesystem::create_directories(out_dir, ec);
     if (ec || !std::filesystem::is_directory(out_dir))
@@ -104,6 +143,8 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
       char name[64];
       std::snprintf(name, sizeof name, "snapshot_%04d.npz", s);
       progress.step(name);
+      current = name;
+      shown = &progress;
       try {
         sim::SimulatedSnapshot sim = sc.simulate(s, run, previous ? &*previous : nullptr);
         max_iterations = std::max(max_iterations, sim.solver.iterations);
@@ -126,6 +167,7 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
         ++failed;
       }
     }
+    shown = nullptr;
     progress.clear();
     if (rawlog) rawlog->commit();
     io::writeFileAtomically(out_dir + "/groundtruth.tum", [&](std::ostream& os) {

@@ -343,6 +343,12 @@ DbaSolverSummary solveDba(Snapshot& s, const DbaOptions& o, const DbaSolverOptio
 
   while (true) {
     if (sum.iterations >= so.max_iterations) return done(DbaTermination::MaxIterations);
+    if (so.on_iteration && sum.iterations > 0) {
+      sum.final_cost = L.cost;
+      sum.final_gradient = L.gradient;
+      sum.final_lambda = lambda;
+      so.on_iteration(sum);
+    }
     ++sum.iterations;
     Step st;
     try {

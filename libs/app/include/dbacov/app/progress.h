@@ -40,6 +40,9 @@ class Progress {
   ~Progress();
   /// Reports that item `label` starts (items before it are done).
   void step(const std::string& label);
+  /// Reports where the current item is (`label`, e.g. "snapshot_0000.npz: DBA solve, iteration
+  /// 12"), without counting an item: for one long item. The log line then ends with the label.
+  void status(const std::string& label);
   /// Clears the line (before printing a message, and at the end).
   void clear();
 
@@ -54,6 +57,7 @@ class Progress {
 
  private:
   double now() const;
+  void show(const std::string& label, bool with_label_in_log);
   std::ostream& err_;
   std::size_t total_, started_ = 0;
   Display display_;

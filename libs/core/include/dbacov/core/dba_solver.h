@@ -52,6 +52,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,8 @@
 
 namespace dbacov {
 
+struct DbaSolverSummary;
+
 struct DbaSolverOptions {
   int max_iterations = 50;            ///< linear solves (accepted or rejected steps)
   double initial_lambda = 1e-4;       ///< Marquardt damping of the first step
@@ -71,6 +74,9 @@ struct DbaSolverOptions {
   double step_tolerance = 1e-12;      ///< pose step (max norm) relative to 1 + the largest |t_wc|
   double min_inverse_depth = 1e-3;    ///< inverse depths never go below this (DROID's clamp)
   Ordering ordering = Ordering::Auto;
+  /// Called after every iteration with the summary so far (iterations, cost, gradient), e.g. to
+  /// show the progress of a long solve; an exception it throws ends the solve.
+  std::function<void(const DbaSolverSummary&)> on_iteration;
 
   /// Throws std::invalid_argument for non-positive or non-finite values.
   void validate() const;
