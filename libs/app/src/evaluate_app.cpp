@@ -23,33 +23,9 @@ namespace dbacov::app {
 namespace {
 
 constexpr const char* kFooter = R"(
-Conventions (docs/conventions.md §3 and §7):
-  Error e = Log(T_est^-1 T_true) in the tangent [rho; phi] of the right perturbation
-  T_wc Exp(xi); NEES = e' Sigma^+ e over the range of Sigma (DoF = its rank; hard-fixed keyframes
-  are no sample). ANEES = mean NEES. Its 95% region is [chi2_{N k}(0.025), chi2_{N k}(0.975)] / N
-  for N independent runs of k DoF; samples of one run (the keyframes of one snapshot) are
-  correlated, so the region is computed with N = number of runs (snapshots, or Monte Carlo runs x
-  snapshots), which is conservative for the pooled ANEES. Coverage: fraction of |e_i| <= m sigma_i,
-  m = 1, 2, 3 (nominal 68.3 / 95.4 / 99.7 %). Spearman: rank correlation between sqrt(trace) of the
-  predicted translation (rotation) covariance and the norm of the actual error.
-  Absolute NEES needs the estimate in the truth's frame and scale, i.e. the gauge held at the truth
-  (simul-dba does that); with --align sim3 (real data) only relative NEES is computed, each
-  snapshot scaled by its similarity alignment to the truth. Relative NEES: pairs of consecutive
-  graph keyframes, Z = T_a^-1 T_b, covariance from the joint marginal (--relative-csv). It does
-  not depend on where the gauge holds the frame; with the two-pose gauge it is conditioned on the
-  relative pose of the two gauge keyframes, which only the minimal gauge leaves free (use
-  dba-covariance --gauge minimal on real data).
-  Calibration: Sigma -> k Sigma divides every NEES by k; k = sum NEES / sum DoF of the relative
-  samples (absolute when there are none) makes the ANEES equal its DoF. dba-covariance
-  --weight-scale (weight scale / k) applies it.
-Files: --csv and --relative-csv are dba-covariance's tables; keyframe times are start + tstamp/fps
-  (--fps, --start-time) or the tstamp-th line of --image-times (e.g. EuRoC cam0/data.csv). A pose
-  rawlog (dba-covariance -o) carries times; its covariances are converted back from
-  [x y z yaw pitch roll] to the tangent. Ground truth: TUM (t tx ty tz qx qy qz qw, camera-to-world)
-  or EuRoC's data.csv (ns, body frame: give the camera's T_BS with --body-to-camera).
-Monte Carlo: --monte-carlo N simulates every snapshot of the scenario N times (noise draws), with
-  self-calibrated covariances (--stated-model: at the scenario's weight scale) and its gauge. --calibration-runs M fits k on runs 0..M-1
-  and evaluates runs M..N-1 (held out).
+What it computes (NEES over the range of Sigma, the ANEES and its 95% region, coverage,
+Spearman, relative NEES, the calibration k), the table and ground-truth formats and the Monte
+Carlo mode: docs/apps/dba-evaluate.md; the error and tangent conventions: docs/conventions.md §3, §7.
 Exit status: 0 success, 1 when an input or output failed or nothing could be evaluated, 2 on bad
 usage.)";
 
