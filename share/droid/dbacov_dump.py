@@ -1,7 +1,8 @@
 """Dump DROID-SLAM's dense-bundle-adjustment (DBA) factor graph as dbacov snapshots.
 
 One snapshot is the DBA factor graph of one frontend update, written as one `.npz` file in the
-interchange format of conventions §1 (dbacov's ``docs/conventions.md``), which ``dba-covariance`` reads:
+interchange format of conventions §1 (dbacov's ``docs/conventions.md``), which
+``dba-covariance`` reads:
 
     poses        float32 (N,7)      T_cw as [tx ty tz qx qy qz qw] (lietorch order)
     disps        float32 (N,H,W)    inverse depth at 1/8 resolution
@@ -25,9 +26,10 @@ DROID keeps targets and weights as (1,E,H,W,2) with the last axis (x, y); they a
 Where to call it
 ----------------
 In DROID-SLAM's ``droid_slam/droid_frontend.py``, method ``DroidFrontend._update`` (current
-DROID-SLAM; ``__update`` in releases before 2025), right after its last DBA, i.e. after the ``if d.item() < ...: / else:`` block that
-ends with ``self.graph.update(None, None, use_inactive=True)``, before "set pose for next
-iteration" (with ``share/droid`` on ``PYTHONPATH``)::
+DROID-SLAM; ``__update`` in releases before 2025), right after its last DBA, i.e. after the
+``if d.item() < ...: / else:`` block that ends with ``self.graph.update(None, None,
+use_inactive=True)``, before "set pose for next iteration" (with ``share/droid`` on
+``PYTHONPATH``)::
 
             for itr in range(self.iters2):
                 self.graph.update(None, None, use_inactive=True)
@@ -51,26 +53,46 @@ default only the active edges ``graph.ii``/``jj`` are dumped; ``include_inactive
 inactive ones with DROID's own selection rule, so that the dump is exactly the factor set of that
 DBA call.
 
+DROID's global BA (``DroidBackend``, run twice by ``Droid.terminate``; ``DroidAsyncBackend``):
+``install_backend_hook(dumper)`` writes ``global_NNNNNN.npz`` right after each
+``FactorGraph.update_lowmem`` of a backend call, before the backend drops its edges; the factor
+set is the backend's graph (its proximity edges, plus every inactive edge when update_lowmem is
+given ``use_inactive=True``) and ``t0`` is 1, what update_lowmem holds (dump_global_ba).
+
+Forks: GO-SLAM's ``video.timestamp`` is read when there is no ``video.tstamp``. DBA-Fusion's
+``tstamp`` holds times in seconds (non-integral values): they are mapped to image indices through
+``image_times_s``, and refused without it (KeyframeTimeError saying so), never taken as indices.
+
+Every attribute is checked before use: a missing one, None, a wrong type, dtype or shape is a
+ValueError naming it (``video.poses has shape (8, 6), expected (slots, 7)``), never another
+exception (``share/droid/tests/fuzz_hook.py`` fuzzes this).
+
 numpy is required; torch is not imported: tensors are read through ``.detach().cpu().numpy()``,
 numpy arrays are taken as they are.
 """
 
 import contextlib
+import functools
 import hashlib
+import inspect
+import operator
 import os
+import re
 import sys
 import tempfile
+import threading
 import zipfile
 
 import numpy as np
 
 __all__ = ["dump_dba_snapshot", "check_snapshot", "write_snapshot_npz", "to_numpy",
            "KeyframeRecord", "KeyframeTimeError", "DbaDumper", "read_euroc_image_times",
-           "snapshot_arrays", "exception_text", "read_real",
-           "DROID_STEREO_RIG"]
+           "snapshot_arrays", "exception_text", "read_real", "keyframe_count",
+           "dump_global_ba", "install_backend_hook", "DROID_STEREO_RIG"]
 
 #: The fixed transform DROID-SLAM's BA applies on an edge with ii == jj (droid_kernels.cu: the
-#: second camera of the stereo pair sits at tij = (-0.1, 0, 0), no rotation), [tx ty tz qx qy qz qw].
+#: second camera of the stereo pair sits at tij = (-0.1, 0, 0), no rotation),
+#: [tx ty tz qx qy qz qw].
 DROID_STEREO_RIG = np.array([-0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
 
 
@@ -90,15 +112,36 @@ def to_numpy(x):
     return np.array(x, copy=True)
 
 
+def _torch_dtype(x):
+    """The dtype name of a torch tensor ('float32', 'bfloat16', ...), None for anything else."""
+    if not hasattr(x, "detach"):
+        return None
+    text = str(getattr(x, "dtype", ""))
+    return text[len("torch."):] if text.startswith("torch.") else None
+
+
 def read_real(x, name, integer=False):
     """to_numpy(x), refusing (ValueError naming `name`) what a conversion to the snapshot dtypes
     would silently change: a masked array (its mask), complex values (the imaginary part),
     booleans and non-numeric dtypes; with `integer`, values that are not integers (a float 1.7
-    would become 1; integral floats such as 2.0 are accepted)."""
+    would become 1; integral floats such as 2.0 are accepted) or beyond int64. What cannot be
+    read as an array at all (None, a ragged list, an object) is refused the same way."""
+    if x is None:
+        raise ValueError(f"{name} is None, expected an array of real numbers (a tensor)")
     if isinstance(x, np.ma.MaskedArray):
         raise ValueError(f"{name} is a NumPy masked array: its mask would be ignored; pass a "
                          "plain array")
-    a = to_numpy(x)
+    dtype = _torch_dtype(x)
+    if dtype is not None and dtype.startswith("complex"):  # before .numpy(), which may fail
+        raise ValueError(f"{name} has the complex dtype {dtype}: its imaginary part would be "
+                         "dropped; expected real numbers")
+    if dtype == "bfloat16":  # NumPy has no bfloat16; float32 holds every value exactly
+        x = x.detach().float()
+    try:
+        a = to_numpy(x)
+    except (TypeError, ValueError, RuntimeError, OverflowError) as exc:
+        raise ValueError(f"{name} cannot be read as an array ({type(x).__name__}): "
+                         f"{exception_text(exc)}") from None
     if a.dtype.kind == "c":
         raise ValueError(f"{name} has the complex dtype {a.dtype}: its imaginary part would be "
                          "dropped; expected real numbers")
@@ -111,7 +154,97 @@ def read_real(x, name, integer=False):
             raise ValueError(f"{name}[{bad[0]}] is {a.reshape(-1)[bad[0]]!r}, not a keyframe "
                              "index: expected integers (integral floats such as 2.0 are "
                              "accepted; a fraction is never rounded)")
+    if integer and a.dtype.kind in "fu":
+        bad = np.flatnonzero(a.reshape(-1) >= 2.0 ** 63) if a.dtype.kind == "u" else \
+            np.flatnonzero(np.abs(a.reshape(-1)) >= 2.0 ** 63)
+        if bad.size:
+            raise ValueError(f"{name}[{bad[0]}] is {a.reshape(-1)[bad[0]]!r}, beyond the int64 "
+                             "range of keyframe indices")
     return a
+
+
+def _integer(value, name, minimum=None):
+    """An integer argument or counter (int, NumPy integer, 0-d integer tensor) as a Python int in
+    the int64 range; anything else (a bool, a float, a string, None) is a ValueError naming it."""
+    if isinstance(value, (bool, np.bool_)):
+        ok = False
+    else:
+        try:
+            value = operator.index(value)
+            ok = -2 ** 63 <= value < 2 ** 63
+        except TypeError:
+            ok = False
+    if not ok:
+        raise ValueError(f"{name} is {value!r} ({type(value).__name__}), expected an integer "
+                         "in the int64 range")
+    if minimum is not None and value < minimum:
+        raise ValueError(f"{name} is {value}, expected at least {minimum}")
+    return value
+
+
+def keyframe_count(video):
+    """N, the keyframes in use: DROID's `video.counter.value` (a multiprocessing Value), checked.
+    A missing counter, a value that is not an integer, or N < 1 is a ValueError naming it."""
+    counter = getattr(video, "counter", None)
+    value = getattr(counter, "value", None)
+    if value is None:
+        raise ValueError("video.counter.value is missing: expected the number of keyframes "
+                         "(DROID's DepthVideo.counter, a multiprocessing Value)")
+    n = _integer(value, "video.counter.value")
+    if n < 1:
+        raise ValueError(f"video.counter.value is {n}: the video holds no keyframe (expected at "
+                         "least 1)")
+    return n
+
+
+def _shape(x, name):
+    """(x, its shape as a tuple of ints): tensors and arrays as they are, anything else
+    (a list) read as an array first."""
+    if x is None:
+        raise ValueError(f"{name} is missing (None or no such attribute)")
+    shape = getattr(x, "shape", None)
+    if shape is None or not hasattr(x, "__getitem__"):
+        x = read_real(x, name)
+        shape = x.shape
+    try:
+        return x, tuple(int(d) for d in shape)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} has the shape {shape!r}, which is not a tuple of sizes") from None
+
+
+def _spelled(shape):
+    return "(" + ", ".join(str(d) for d in shape) + ("," if len(shape) == 1 else "") + ")"
+
+
+def _slots(video, name, n, tail):
+    """video.name[:n] of a DROID buffer whose first axis is the keyframe slot, as read by
+    read_real; `tail` is the shape of one slot (None = any size). The buffer must hold at least
+    the N keyframes."""
+    full = f"video.{name}"
+    x, shape = _shape(getattr(video, name, None), full)
+    if len(shape) != 1 + len(tail) or any(d is not None and d != s
+                                          for d, s in zip(tail, shape[1:])):
+        expected = ("slots",) + tuple("*" if d is None else d for d in tail)
+        raise ValueError(f"{full} has shape {_spelled(shape)}, expected {_spelled(expected)}")
+    if shape[0] < n:
+        raise ValueError(f"{full} has {shape[0]} slots, fewer than the video.counter.value = "
+                         f"{n} keyframes")
+    return read_real(x[:n], full)
+
+
+def _planes(graph, name, edges, like=None):
+    """graph.name as DROID keeps it, (1,E,H,W,2), with E = `edges`: (the object, its shape).
+    `like` = (other name, its shape): the H x W grid must be the other's."""
+    x, shape = _shape(getattr(graph, name, None), f"graph.{name}")
+    if len(shape) != 5 or shape[0] != 1 or shape[1] != edges or shape[4] != 2:
+        ii = "ii_inac" if name.endswith("_inac") else "ii"
+        raise ValueError(f"graph.{name} has shape {_spelled(shape)}, expected (1,E,H,W,2) with "
+                         f"E = {edges} (the edges of graph.{ii})")
+    if like is not None and shape[2:4] != like[1][2:4]:
+        raise ValueError(f"graph.{name} has shape {_spelled(shape)}: its H x W grid "
+                         f"{shape[2]} x {shape[3]} is not graph.{like[0]}'s {like[1][2]} x "
+                         f"{like[1][3]}")
+    return x, shape
 
 
 def _plane_layout(a, name):
@@ -119,6 +252,39 @@ def _plane_layout(a, name):
     if a.ndim != 5 or a.shape[0] != 1 or a.shape[4] != 2:
         raise ValueError(f"graph.{name} has shape {tuple(a.shape)}, expected (1,E,H,W,2)")
     return np.ascontiguousarray(a[0].transpose(0, 3, 1, 2))
+
+
+def _edge_indices(graph, names, n):
+    """graph.ii / graph.jj (or their _inac pair) as int64 (E,), checked for the same E and for
+    keyframes in [0, n)."""
+    out = []
+    for name in names:
+        x, shape = _shape(getattr(graph, name, None), f"graph.{name}")
+        if len(shape) != 1:
+            raise ValueError(f"graph.{name} has shape {_spelled(shape)}, expected (E,)")
+        a = read_real(x, f"graph.{name}", integer=True).astype(np.int64)
+        bad = np.flatnonzero((a < 0) | (a >= n))
+        if bad.size:
+            raise ValueError(f"graph.{name}[{bad[0]}] names keyframe {a[bad[0]]}, outside [0, {n})"
+                             f" (video.counter.value = {n} keyframes)")
+        out.append(a)
+    if out[0].size != out[1].size:
+        raise ValueError(f"graph.{names[1]} has {out[1].size} edges but graph.{names[0]} has "
+                         f"{out[0].size}: expected one index pair per edge")
+    return out
+
+
+def _lock(video):
+    """video.get_lock(), DROID's lock of the video's buffers, checked to be a context manager."""
+    get_lock = getattr(video, "get_lock", None)
+    if not callable(get_lock):
+        raise ValueError("video.get_lock is missing or not callable: expected DROID's "
+                         "DepthVideo.get_lock() (the lock of its buffers)")
+    lock = get_lock()
+    if not (hasattr(lock, "__enter__") and hasattr(lock, "__exit__")):
+        raise ValueError(f"video.get_lock() returned {type(lock).__name__}, expected a lock "
+                         "(a context manager)")
+    return lock
 
 
 def _where(key, index):
@@ -133,7 +299,8 @@ def _where(key, index):
 
 
 def check_snapshot(arrays, check_values=True, names=None):
-    """Checks a dict of conventions §1 arrays; raises ValueError naming the key and what was expected.
+    """Checks a dict of conventions §1 arrays; raises ValueError naming the key and what was
+    expected.
 
     Always: shapes agree (N from 'poses', E from 'ii', H,W from 'disps'), ii/jj in [0, N) and
     ii != jj unless a 'stereo_rig' transform is given (a stereo edge). With check_values also:
@@ -238,8 +405,58 @@ class KeyframeTimeError(ValueError):
 
 def _fingerprint(image):
     """A short digest of one keyframe image (subsampled), to recognise a slot after a shift."""
-    a = to_numpy(image)
-    return hashlib.blake2b(np.ascontiguousarray(a[..., ::4, ::4]).tobytes(), digest_size=16).digest()
+    a = read_real(image, "video.images")
+    return hashlib.blake2b(np.ascontiguousarray(a[..., ::4, ::4]).tobytes(),
+                           digest_size=16).digest()
+
+
+#: Two times closer than this (seconds) are the same image's: far below any camera's frame period,
+#: far above the rounding of a time in seconds since 1970 held in float64 (about 2e-7 s).
+IMAGE_TIME_TOLERANCE_S = 1e-4
+
+
+def _time_stamps(video):
+    """(name, buffer) of the keyframes' time stamps: DROID's `video.tstamp`, or GO-SLAM's
+    `video.timestamp` when the video has no `tstamp`."""
+    for name in ("tstamp", "timestamp"):
+        x = getattr(video, name, None)
+        if x is not None:
+            return name, x
+    raise ValueError("video.tstamp is missing (None or no such attribute), and so is "
+                     "video.timestamp (GO-SLAM's name): expected the keyframes' time stamps")
+
+
+def _image_times(image_times_s):
+    """image_times_s as float64 (M,), checked."""
+    times = read_real(image_times_s, "image_times_s").astype(np.float64)
+    if times.ndim != 1:
+        raise ValueError(f"image_times_s has shape {_spelled(times.shape)}, expected (images,): "
+                         "the time in seconds of every input image, by image index")
+    return times
+
+
+def _indices_of_times(stamps, times, name):
+    """The image index whose time (image_times_s) is within IMAGE_TIME_TOLERANCE_S of each stamp
+    (seconds), as int64; a stamp that matches no image time raises KeyframeTimeError."""
+    if times.size == 0:
+        raise KeyframeTimeError(f"{name} holds times in seconds but image_times_s is empty: "
+                                "expected the time of every input image")
+    order = np.argsort(times, kind="stable")
+    sorted_times = times[order]
+    right = np.clip(np.searchsorted(sorted_times, stamps), 0, times.size - 1)
+    left = np.clip(right - 1, 0, times.size - 1)
+    near = np.where(np.abs(sorted_times[left] - stamps) <= np.abs(sorted_times[right] - stamps),
+                    left, right)
+    gap = np.abs(sorted_times[near] - stamps)
+    bad = np.flatnonzero(~(gap <= IMAGE_TIME_TOLERANCE_S))
+    if bad.size:
+        k = int(bad[0])
+        raise KeyframeTimeError(f"{name}[{k}] = {stamps[k]:.6f} s matches no image time: the "
+                                f"nearest is image {int(order[near[k]])} at "
+                                f"{sorted_times[near[k]]:.6f} s (tolerance "
+                                f"{IMAGE_TIME_TOLERANCE_S:g} s); image_times_s must be the times "
+                                "of the images DROID was fed")
+    return order[near].astype(np.int64)
 
 
 class KeyframeRecord:
@@ -271,20 +488,63 @@ class KeyframeRecord:
         self.stale_corrections = 0
 
     def _digests(self, video, n):
-        if getattr(video, "images", None) is None:
+        images = getattr(video, "images", None)
+        if images is None:
             return {}
-        return {k: _fingerprint(video.images[k]) for k in range(max(0, n - self.window), n)}
+        images, shape = _shape(images, "video.images")
+        if len(shape) < 3 or shape[0] < n:
+            raise ValueError(f"video.images has shape {_spelled(shape)}, expected (slots, 3, 8H, "
+                             f"8W) with at least the video.counter.value = {n} slots")
+        return {k: _fingerprint(images[k]) for k in range(max(0, n - self.window), n)}
 
-    def update(self, video):
-        """The frame index of keyframe slots 0..N-1 now (np.int64), updating the record."""
-        n = int(video.counter.value)
-        ts = read_real(video.tstamp[:n + 1], "video.tstamp").astype(np.float64).reshape(-1)
-        if n < 1 or ts.size < n or not np.isfinite(ts[:n]).all() or \
-                (ts[:n] != np.round(ts[:n])).any():
-            raise KeyframeTimeError(f"video.tstamp[:{n}] does not hold integer image indices "
-                                    f"(counter.value = {n})")
-        view = ts[:n].astype(np.int64)
-        ghost = int(ts[n]) if ts.size > n and np.isfinite(ts[n]) else None
+    def update(self, video, image_times_s=None):
+        """The frame index of keyframe slots 0..N-1 now (np.int64), updating the record.
+
+        The time stamps are `video.tstamp` (DROID), or `video.timestamp` (GO-SLAM) when there is
+        no `tstamp`. Stamps that are not integers are times in seconds (DBA-Fusion's `tstamp`):
+        they are mapped to image indices through `image_times_s` (the time of every input image,
+        by index), and refused (KeyframeTimeError naming the fork) without it."""
+        n = keyframe_count(video)
+        name, buffer = _time_stamps(video)
+        buffer, shape = _shape(buffer, f"video.{name}")
+        if len(shape) != 1:
+            raise KeyframeTimeError(f"video.{name} has shape {_spelled(shape)}, expected "
+                                    "(slots,): one time stamp per keyframe slot")
+        if shape[0] < n:
+            raise KeyframeTimeError(f"video.{name} has {shape[0]} slots, fewer than the "
+                                    f"video.counter.value = {n} keyframes")
+        ts = read_real(buffer[:n + 1], f"video.{name}").astype(np.float64)
+        bad = np.flatnonzero(~np.isfinite(ts[:n]))
+        if bad.size:
+            raise KeyframeTimeError(f"video.{name}[{bad[0]}] is {ts[bad[0]]!r}: expected the "
+                                    "keyframe's image index, a finite number")
+        ghost = ts[n] if ts.size > n and np.isfinite(ts[n]) else None
+        fraction = np.flatnonzero(ts[:n] != np.round(ts[:n]))
+        if fraction.size:
+            k = int(fraction[0])
+            if image_times_s is None:
+                raise KeyframeTimeError(
+                    f"video.{name} holds times in seconds, not image indices: keyframe {k} has "
+                    f"{ts[k]:.6f}, not an integer; this looks like DBA-Fusion, whose tstamp is "
+                    "in seconds; pass image_times_s= (the time of every input image, by index, "
+                    "e.g. read_euroc_image_times('cam0/data.csv')) so that the keyframes' image "
+                    "indices can be found")
+            times = _image_times(image_times_s)
+            view = _indices_of_times(ts[:n], times, f"video.{name}")
+            if ghost is not None:  # beyond the counter: an image's time, or left over (None)
+                try:
+                    ghost = int(_indices_of_times(np.array([ghost]), times, "")[0])
+                except KeyframeTimeError:
+                    ghost = None
+        else:
+            big = np.flatnonzero(np.abs(ts[:n]) >= 2.0 ** 53)
+            if big.size:
+                raise KeyframeTimeError(f"video.{name}[{big[0]}] is {ts[big[0]]:g}, beyond the "
+                                        "integers that a float64 holds exactly (2**53): not an "
+                                        "image index")
+            view = ts[:n].astype(np.int64)
+            ghost = int(ghost) if ghost is not None and ghost == np.round(ghost) and \
+                abs(ghost) < 2.0 ** 53 else None
         prints = self._digests(video, n)
         prev = self.frames
         if prev is None:
@@ -297,7 +557,7 @@ class KeyframeRecord:
         elif n == prev.size + 1:  # one keyframe appended: its tstamp is fresh in every release
             frames = np.append(prev, view[-1])
             if not self.stale and not np.array_equal(view[:-1], prev):
-                raise KeyframeTimeError(self._disagree(prev, view))
+                raise KeyframeTimeError(self._disagree(prev, view, name))
         elif n == prev.size and ghost is not None and ghost > prev[-1]:
             # A keyframe appended (its index survives beyond the counter) and one removed.
             shifted = None
@@ -313,7 +573,7 @@ class KeyframeRecord:
         elif n == prev.size:  # called again without a new keyframe
             frames = prev
             if not self.stale and not np.array_equal(view, prev):
-                raise KeyframeTimeError(self._disagree(prev, view))
+                raise KeyframeTimeError(self._disagree(prev, view, name))
         else:
             raise KeyframeTimeError(f"the keyframe count went from {prev.size} to {n} between "
                                     "two calls: call the hook once per frontend update")
@@ -326,9 +586,9 @@ class KeyframeRecord:
         return frames.copy()
 
     @staticmethod
-    def _disagree(prev, view):
+    def _disagree(prev, view, name="tstamp"):
         k = int(np.flatnonzero(view[:prev.size] != prev[:view.size])[0])
-        return (f"video.tstamp[{k}] = {view[k]} but the record says frame {prev[k]}: keyframes "
+        return (f"video.{name}[{k}] = {view[k]} but the record says frame {prev[k]}: keyframes "
                 "changed outside the frontend update (one record per DepthVideo)")
 
     def _removed_slot(self, n, prints):
@@ -360,10 +620,11 @@ def read_euroc_image_times(csv_path):
 
 
 def dump_dba_snapshot(path, video, graph, snapshot_id, timestamps_s=None, compressed=True,
-                      include_inactive=False, record=None, image_times_s=None, stereo_rig=None):
+                      include_inactive=False, record=None, image_times_s=None, stereo_rig=None,
+                      t0=None):
     arrays = snapshot_arrays(video, graph, snapshot_id, timestamps_s=timestamps_s,
                              include_inactive=include_inactive, record=record,
-                             image_times_s=image_times_s, stereo_rig=stereo_rig)
+                             image_times_s=image_times_s, stereo_rig=stereo_rig, t0=t0)
     write_snapshot_npz(path, arrays, compressed)
     return path
 
@@ -372,12 +633,15 @@ dump_dba_snapshot.__doc__ = None  # set below, shared with snapshot_arrays
 
 
 def snapshot_arrays(video, graph, snapshot_id=None, timestamps_s=None, include_inactive=False,
-                    record=None, image_times_s=None, stereo_rig=None):
-    """Writes the current DBA factor graph of DROID-SLAM to `path` (conventions §1 `.npz`, atomically).
+                    record=None, image_times_s=None, stereo_rig=None, t0=None):
+    """Writes the current DBA factor graph of DROID-SLAM to `path` (conventions §1 `.npz`,
+    atomically).
 
     video         DROID's DepthVideo: poses (≥N,7) T_cw, disps (≥N,H,W), intrinsics (≥N,4),
                   tstamp (≥N,), counter.value = N, get_lock(); optional disps_sens (≥N,H,W)
-                  (RGB-D), images (to locate removed keyframes), stereo.
+                  (RGB-D), images (to locate removed keyframes), stereo. GO-SLAM's
+                  `timestamp` is read when there is no `tstamp`; a `tstamp` in seconds
+                  (DBA-Fusion's) needs `image_times_s`.
     graph         DROID's FactorGraph: ii, jj (E,), target, weight (1,E,H,W,2), last axis (x, y).
     snapshot_id   stored as 'id' (int64 scalar); None leaves 'id' out.
     timestamps_s  optional keyframe times in seconds, N values; stored as float64 'timestamps_s'.
@@ -392,85 +656,105 @@ def snapshot_arrays(video, graph, snapshot_id=None, timestamps_s=None, include_i
                   are refused (ValueError) rather than given DROID's rig.
     compressed    np.savez_compressed (default) or np.savez.
     include_inactive  also dump the inactive edges that DROID's DBA used (see the module doc).
+    t0            the first pose the BA optimized (it held every pose below); None = the
+                  frontend's rule, max(1, min(ii) + 1) over the active edges. DROID's global BA
+                  (FactorGraph.update_lowmem) uses 1: see dump_global_ba.
 
     Extra keys: 't0' (int64, DROID's first optimized pose of this update, max(1, min(ii) + 1)
-    over the active edges), 'disps_sens' (float32 (N,H,W), only when some value is > 0) and
-    'stereo_rig' (float64 (7,), only with ii == jj edges).
+    over the active edges unless given), 'disps_sens' (float32 (N,H,W), only when some value is
+    > 0) and 'stereo_rig' (float64 (7,), only with ii == jj edges).
 
-    Raises ValueError, before writing anything, when the intrinsics of the N keyframes differ,
-    when an edge names a keyframe outside [0, N), when shapes are inconsistent, and
-    KeyframeTimeError when the keyframe frame indices cannot be established. Returns `path`.
+    Raises ValueError, before writing anything, when an attribute is missing or has the wrong
+    type, dtype or shape (naming it), when the intrinsics of the N keyframes differ, when an edge
+    names a keyframe outside [0, N), and KeyframeTimeError when the keyframe frame indices cannot
+    be established. Returns `path`.
     """
-    with video.get_lock():
-        n = int(video.counter.value)
-        poses = read_real(video.poses[:n], "video.poses")
-        disps = read_real(video.disps[:n], "video.disps")
-        intrinsics = read_real(video.intrinsics[:n], "video.intrinsics")
-        frames = (record if record is not None else KeyframeRecord()).update(video)
-        sens = getattr(video, "disps_sens", None)
-        sens = read_real(sens[:n], "video.disps_sens") if sens is not None else None
-        ii = read_real(graph.ii, "graph.ii", integer=True)
-        jj = read_real(graph.jj, "graph.jj", integer=True)
-        target = read_real(graph.target, "graph.target")
-        weight = read_real(graph.weight, "graph.weight")
-        t0 = max(1, int(ii.min()) + 1) if ii.size else None
-        if include_inactive and ii.size:
-            # DROID's FactorGraph.update(use_inactive=True): inactive edges first, then active.
-            m = (graph.ii_inac >= t0 - 3) & (graph.jj_inac >= t0 - 3)
-            ii = np.concatenate([read_real(graph.ii_inac[m], "graph.ii_inac", integer=True), ii])
-            jj = np.concatenate([read_real(graph.jj_inac[m], "graph.jj_inac", integer=True), jj])
-            target = np.concatenate([read_real(graph.target_inac[:, m], "graph.target_inac"),
-                                     target], axis=1)
-            weight = np.concatenate([read_real(graph.weight_inac[:, m], "graph.weight_inac"),
-                                     weight], axis=1)
+    times = None if image_times_s is None else _image_times(image_times_s)
+    sid = None if snapshot_id is None else _integer(snapshot_id, "snapshot_id")
+    fixed_t0 = None if t0 is None else _integer(t0, "t0", minimum=0)
+    with _lock(video):
+        n = keyframe_count(video)
+        poses = _slots(video, "poses", n, (7,))
+        disps = _slots(video, "disps", n, (None, None))
+        intrinsics = _slots(video, "intrinsics", n, (4,))
+        frames = (record if record is not None else KeyframeRecord()).update(
+            video, image_times_s=times)
+        sens = None
+        if getattr(video, "disps_sens", None) is not None:
+            sens = _slots(video, "disps_sens", n, disps.shape[1:])
+        ii, jj = _edge_indices(graph, ("ii", "jj"), n)
+        target, shape = _planes(graph, "target", ii.size)
+        weight, _ = _planes(graph, "weight", ii.size, like=("target", shape))
+        if shape[2:4] != disps.shape[1:]:
+            raise ValueError(f"graph.target has shape {_spelled(shape)}: its H x W grid "
+                             f"{shape[2]} x {shape[3]} is not video.disps' {disps.shape[1]} x "
+                             f"{disps.shape[2]}")
+        target = read_real(target, "graph.target")
+        weight = read_real(weight, "graph.weight")
+        t0 = fixed_t0 if fixed_t0 is not None else \
+            (max(1, int(ii.min()) + 1) if ii.size else None)
+        if include_inactive and t0 is not None:
+            # DROID's FactorGraph.update(use_inactive=True): inactive edges first, then active,
+            # those whose keyframes are both >= t0 - 3 (with t0 = 1, update_lowmem's: all).
+            ii_inac, jj_inac = _edge_indices(graph, ("ii_inac", "jj_inac"), n)
+            keep = np.flatnonzero((ii_inac >= t0 - 3) & (jj_inac >= t0 - 3))
+            planes = []
+            for name in ("target_inac", "weight_inac"):
+                like = ("target", (1, ii_inac.size) + shape[2:])
+                x, _ = _planes(graph, name, ii_inac.size, like=like)
+                planes.append(read_real(x[:, keep], f"graph.{name}"))
+            ii = np.concatenate([ii_inac[keep], ii])
+            jj = np.concatenate([jj_inac[keep], jj])
+            target = np.concatenate([planes[0], target], axis=1)
+            weight = np.concatenate([planes[1], weight], axis=1)
 
-    if n < 1 or intrinsics.shape != (n, 4):
-        raise ValueError(f"video.intrinsics[:{n}] has shape {intrinsics.shape}, expected ({n}, 4)")
-    differs = np.flatnonzero((intrinsics != intrinsics[0]).any(axis=1))
+    same = (intrinsics == intrinsics[0]) | (np.isnan(intrinsics) & np.isnan(intrinsics[0]))
+    differs = np.flatnonzero(~same.all(axis=1))
     if differs.size:
         k = differs[0]
         raise ValueError(f"video.intrinsics differ between keyframes: row {k} = {intrinsics[k]} "
                          f"but row 0 = {intrinsics[0]}; a snapshot has one camera (fx fy cx cy)")
-    if poses.ndim != 2 or disps.ndim != 3:
-        raise ValueError(f"video.poses[:{n}] / video.disps[:{n}] have shapes {poses.shape} / "
-                         f"{disps.shape}, expected ({n}, 7) / ({n}, H, W)")
     # A value beyond float32 becomes inf here, refused by position by the checks, not a warning.
     with np.errstate(over="ignore", invalid="ignore"):
         arrays = {
             "poses": poses.astype(np.float32),
             "disps": disps.astype(np.float32),
             "intrinsics": intrinsics[0].astype(np.float32),
-            "ii": ii.astype(np.int64).reshape(-1),
-            "jj": jj.astype(np.int64).reshape(-1),
+            "ii": ii.astype(np.int64),
+            "jj": jj.astype(np.int64),
             "target": _plane_layout(target, "target").astype(np.float32, copy=False),
             "weight": _plane_layout(weight, "weight").astype(np.float32, copy=False),
             "tstamp": frames.astype(np.float64),
         }
+        if sens is not None and (sens > 0).any():
+            arrays["disps_sens"] = np.where(sens > 0, sens, 0).astype(np.float32)
     if t0 is not None:
         arrays["t0"] = np.array(t0, dtype=np.int64)
-    if sens is not None and (sens > 0).any():
-        arrays["disps_sens"] = np.where(sens > 0, sens, 0).astype(np.float32)
     if (arrays["ii"] == arrays["jj"]).any():
-        if stereo_rig is None and not getattr(video, "stereo", False):
+        stereo = getattr(video, "stereo", None)
+        if stereo is not None and not isinstance(stereo, (bool, np.bool_)):
+            raise ValueError(f"video.stereo is {stereo!r} ({type(stereo).__name__}), expected "
+                             "True or False (DepthVideo(stereo=...))")
+        if stereo_rig is None and not stereo:
             e = int(np.flatnonzero(arrays["ii"] == arrays["jj"])[0])
             raise ValueError(f"graph edge {e} links keyframe {int(arrays['ii'][e])} to itself "
                              "(ii == jj), a stereo edge, but the video is not stereo "
-                             f"(video.stereo = {getattr(video, 'stereo', None)!r}): run DROID-SLAM "
+                             f"(video.stereo = {stereo!r}): run DROID-SLAM "
                              "with --stereo (DepthVideo(stereo=True)), or give the rig "
                              "transform as stereo_rig= [tx ty tz qx qy qz qw] (DROID's: "
                              "dbacov_dump.DROID_STEREO_RIG)")
         rig = DROID_STEREO_RIG if stereo_rig is None else read_real(stereo_rig, "stereo_rig")
-        arrays["stereo_rig"] = np.asarray(rig, dtype=np.float64).reshape(-1)
-    if image_times_s is not None:
-        times = read_real(image_times_s, "image_times_s").astype(np.float64).reshape(-1)
-        if frames.size and (frames.min() < 0 or frames.max() >= times.size):
-            raise KeyframeTimeError(f"keyframe frame index {int(frames.max())} is beyond the "
+        arrays["stereo_rig"] = np.asarray(rig, dtype=np.float64)
+    if times is not None:
+        if frames.min() < 0 or frames.max() >= times.size:
+            k = int(np.flatnonzero((frames < 0) | (frames >= times.size))[0])
+            raise KeyframeTimeError(f"keyframe {k}'s frame index {int(frames[k])} is beyond the "
                                     f"{times.size} image times given (image_times_s)")
         arrays["timestamps_s"] = times[frames]
     if timestamps_s is not None:
         arrays["timestamps_s"] = read_real(timestamps_s, "timestamps_s").astype(np.float64)
-    if snapshot_id is not None:
-        arrays["id"] = np.array(int(snapshot_id), dtype=np.int64)
+    if sid is not None:
+        arrays["id"] = np.array(sid, dtype=np.int64)
     check_snapshot(arrays, check_values=False)
     return arrays
 
@@ -478,6 +762,32 @@ def snapshot_arrays(video, graph, snapshot_id=None, timestamps_s=None, include_i
 dump_dba_snapshot.__doc__ = snapshot_arrays.__doc__
 snapshot_arrays.__doc__ = ("The conventions §1 arrays of DROID's current DBA (a dict), as "
                            "dump_dba_snapshot writes them.\n" + (snapshot_arrays.__doc__ or ""))
+
+
+def dump_global_ba(path, video, graph, snapshot_id=None, include_inactive=False, record=None,
+                   image_times_s=None, stereo_rig=None, compressed=True, t0=1):
+    """Writes the factor graph of DROID's global BA to `path`: call it right after
+    `FactorGraph.update_lowmem` returns, before the backend drops the edges (`clear_edges`,
+    `rm_factors`); install_backend_hook does it for DROID's backends.
+
+    update_lowmem ends each of its steps with `video.ba(target, weight, damping, ii, jj, 1, t)`:
+    it holds pose 0 only (t0 = 1, whatever t0 it is given) and optimizes every other keyframe,
+    over the graph's active edges (DroidBackend: the proximity graph it has just built,
+    `use_inactive=False`) and, with `use_inactive=True` (DroidAsyncBackend), every inactive edge
+    too: pass the same as `include_inactive` (DROID's selection >= t0 - 3 keeps them all with
+    t0 = 1). The snapshot's 't0' is 1 (`--gauge droid` holds keyframe 0 only: in monocular mode
+    the scale is then free, held in DROID by its damping alone; use `--gauge two-pose` there).
+    A fork whose global BA holds more (GO-SLAM's loop BA: update_lowmem(t0=...)) passes its t0.
+    The other arguments are dump_dba_snapshot's. Returns `path`."""
+    return dump_dba_snapshot(path, video, graph, snapshot_id, compressed=compressed,
+                             include_inactive=include_inactive, record=record,
+                             image_times_s=image_times_s, stereo_rig=stereo_rig, t0=t0)
+
+
+def _failure_kind(exc, text):
+    """What makes two failures 'the same kind' for a report once: the exception's type and its
+    message up to the first colon, numbers left out (a keyframe count changes at every update)."""
+    return type(exc).__name__, re.sub(r"[0-9]+", "#", text.split(":")[0])
 
 
 class DbaDumper:
@@ -489,18 +799,22 @@ class DbaDumper:
 
     Every failure (bad tensors, a disk error, keyframe times it cannot establish, a bug) is caught:
     the first of each kind is reported once on stderr (`stream`), the update's snapshot is skipped,
-    and DROID goes on. `failures` counts them, `written` the snapshots written.
+    and DROID goes on. `failures` counts them, `written` the snapshots written. `global_ba` is the
+    same hook for DROID's global BA (install_backend_hook calls it), written as
+    `global_pattern`. A bad `image_times_s` is refused here (ValueError), before SLAM starts.
     """
 
     def __init__(self, out_dir, image_times_s=None, include_inactive=True, compressed=True,
-                 stereo_rig=None, pattern="window_{:06d}.npz", stream=None):
+                 stereo_rig=None, pattern="window_{:06d}.npz", stream=None,
+                 global_pattern="global_{:06d}.npz"):
         self.out_dir = os.fspath(out_dir)
-        self.image_times_s = None if image_times_s is None else to_numpy(image_times_s)
+        self.image_times_s = None if image_times_s is None else _image_times(image_times_s)
         self.include_inactive, self.compressed = include_inactive, compressed
         self.stereo_rig, self.pattern = stereo_rig, pattern
+        self.global_pattern = global_pattern
         self.stream = stream
         self.record = KeyframeRecord()
-        self.written, self.failures = 0, 0
+        self.written, self.failures, self.global_calls = 0, 0, 0
         self._reported = set()
 
     def __call__(self, video, graph, count):
@@ -513,15 +827,126 @@ class DbaDumper:
             self.written += 1
             return path
         except Exception as exc:  # noqa: BLE001 -- the hook must never stop SLAM
-            self.failures += 1
             if isinstance(exc, KeyframeTimeError):
                 self.record = KeyframeRecord()  # start afresh at the next update
-            text = exception_text(exc)
-            kind = (type(exc).__name__, text.split(":")[0])
-            if kind not in self._reported:
-                self._reported.add(kind)
-                with contextlib.suppress(Exception):
-                    print(f"dbacov_dump: snapshot {count} not written ({type(exc).__name__}: "
-                          f"{text}); DROID-SLAM goes on, further failures of this kind are not "
-                          "reported", file=self.stream or sys.stderr, flush=True)
+            self._failed(exc, f"snapshot {count}")
             return None
+
+    def global_ba(self, video, graph, count=None, include_inactive=False):
+        """The hook right after DROID's global BA (FactorGraph.update_lowmem), before the backend
+        drops its edges: writes dump_global_ba's snapshot as `global_pattern` with `count`
+        (default: 1, 2, ... for the global BAs seen so far; DROID runs two at the end, 7 and 12
+        steps). `include_inactive` is the update_lowmem call's `use_inactive`. The keyframes'
+        frame indices come from the frontend's record when it has followed this video up to now
+        (the same DbaDumper as the frontend's: with DROID releases before 2025 its record
+        corrects their stale tstamp), else from the video's stamps alone (right for current
+        DROID, which keeps them exact; the only one with DroidAsyncBackend). Never raises."""
+        self.global_calls += 1
+        count = self.global_calls if count is None else count
+        try:
+            os.makedirs(self.out_dir, exist_ok=True)
+            path = os.path.join(self.out_dir, self.global_pattern.format(int(count)))
+            n = keyframe_count(video)
+            shared = self.record.frames is not None and self.record.frames.size == n
+            dump_global_ba(path, video, graph, count, include_inactive=include_inactive,
+                           record=self.record if shared else KeyframeRecord(),
+                           image_times_s=self.image_times_s, stereo_rig=self.stereo_rig,
+                           compressed=self.compressed)
+            self.written += 1
+            return path
+        except Exception as exc:  # noqa: BLE001 -- the hook must never stop SLAM
+            self._failed(exc, f"global BA snapshot {count}")
+            return None
+
+    def _failed(self, exc, what):
+        self.failures += 1
+        text = exception_text(exc)
+        kind = _failure_kind(exc, text)
+        if kind not in self._reported:
+            self._reported.add(kind)
+            with contextlib.suppress(Exception):
+                print(f"dbacov_dump: {what} not written ({type(exc).__name__}: {text}); "
+                      "DROID-SLAM goes on, further failures of this kind are not reported",
+                      file=self.stream or sys.stderr, flush=True)
+
+
+_backend_calls = threading.local()  # how deep this thread is inside a wrapped backend call
+
+
+def _counted_backend_call(original):
+    """A backend's __call__ that marks the thread as inside a backend call while it runs."""
+    @functools.wraps(original)
+    def call(self, *args, **kwargs):
+        _backend_calls.depth = getattr(_backend_calls, "depth", 0) + 1
+        try:
+            return original(self, *args, **kwargs)
+        finally:
+            _backend_calls.depth -= 1
+
+    call._dbacov_backend = True
+    return call
+
+
+def install_backend_hook(dumper, backend_class=None, graph_class=None):
+    """Dumps DROID's global BA: `dumper.global_ba(graph.video, graph,
+    include_inactive=use_inactive)` runs right after every `FactorGraph.update_lowmem` that a
+    backend call makes, i.e. after the global BA and before the backend drops its edges
+    (DroidBackend: `graph.clear_edges()`; DroidAsyncBackend: `rm_factors`). `dumper` is a
+    DbaDumper (or anything with that global_ba method); its failures never propagate.
+
+    backend_class  DROID's DroidBackend and DroidAsyncBackend (droid_slam/droid_backend.py) by
+                   default, whichever exist; or a class, or a tuple of classes, whose __call__
+                   runs the global BA.
+    graph_class    the FactorGraph those backends use (default: the one of their module).
+
+    Call it before DROID's backend runs (Droid.terminate runs DroidBackend twice). With
+    DroidAsyncBackend the backend runs in its own process (droid_async.backend_process): call it
+    there, with a DbaDumper of that process. Installing again replaces the hook. Returns the
+    wrapped classes."""
+    if backend_class is None:
+        try:  # DROID-SLAM's droid_slam/ on sys.path, as its demo.py puts it
+            import droid_backend as module
+        except ImportError:  # droid_slam installed as a package
+            from droid_slam import droid_backend as module
+        classes = tuple(getattr(module, name) for name in ("DroidBackend", "DroidAsyncBackend")
+                        if hasattr(module, name))
+    else:
+        classes = tuple(backend_class) if isinstance(backend_class, (tuple, list)) \
+            else (backend_class,)
+    if not classes:
+        raise ValueError("no backend class to wrap: droid_backend has neither DroidBackend nor "
+                         "DroidAsyncBackend; pass backend_class=")
+    if graph_class is None:
+        graph_class = getattr(sys.modules[classes[0].__module__], "FactorGraph", None)
+        if graph_class is None:
+            raise ValueError(f"{classes[0].__module__} has no FactorGraph: pass graph_class=")
+    for cls in classes:
+        original = cls.__call__
+        if getattr(original, "_dbacov_backend", False):
+            original = original.__wrapped__  # installed twice
+        cls.__call__ = _counted_backend_call(original)
+
+    original = graph_class.update_lowmem
+    if getattr(original, "_dbacov_hook", None) is not None:
+        original = original.__wrapped__  # installed twice: replace the hook
+    try:
+        signature = inspect.signature(original)
+    except (TypeError, ValueError):
+        signature = None
+
+    @functools.wraps(original)
+    def update_lowmem(self, *args, **kwargs):
+        result = original(self, *args, **kwargs)
+        if getattr(_backend_calls, "depth", 0) > 0:
+            with contextlib.suppress(Exception):
+                use_inactive = kwargs.get("use_inactive", False)
+                if signature is not None:
+                    bound = signature.bind(self, *args, **kwargs)
+                    bound.apply_defaults()
+                    use_inactive = bound.arguments.get("use_inactive", False)
+                dumper.global_ba(self.video, self, include_inactive=bool(use_inactive))
+        return result
+
+    update_lowmem._dbacov_hook = dumper
+    graph_class.update_lowmem = update_lowmem
+    return classes

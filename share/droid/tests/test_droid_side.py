@@ -194,7 +194,8 @@ class DumpTest(unittest.TestCase):
     def test_edge_beyond_counter_raises(self):
         video, graph = self.make()
         graph.jj._a[2] = self.N  # a keyframe slot beyond counter.value
-        with self.assertRaisesRegex(ValueError, r"'jj': edge 2 names keyframe 5, outside \[0, 5\)"):
+        with self.assertRaisesRegex(ValueError, r"^graph.jj\[2\] names keyframe 5, outside "
+                                                r"\[0, 5\) \(video.counter.value = 5 keyframes\)$"):
             dbacov_dump.dump_dba_snapshot(os.path.join(self.dir, "s.npz"), video, graph, 1)
         self.assertEqual(os.listdir(self.dir), [])
 
@@ -441,13 +442,21 @@ class KeyframeTimesTest(unittest.TestCase):
         broken.weight = FakeTensor(broken.weight._a[0])
         for count in (2, 3, 4):
             self.assertIsNone(dumper(video, broken, count))
-        self.assertIsNone(dumper(video, None, 5))  # a bug-like failure (AttributeError)
-        self.assertEqual((dumper.written, dumper.failures), (1, 4))
+        self.assertIsNone(dumper(video, None, 5))  # no graph: refused, naming what is missing
+
+        class Failing:  # a failure of DROID's own objects (a CUDA error, a bug)
+            @property
+            def ii(self):
+                raise RuntimeError("CUDA error: an illegal memory access was encountered")
+
+        self.assertIsNone(dumper(video, Failing(), 6))
+        self.assertEqual((dumper.written, dumper.failures), (1, 5))
         lines = stream.getvalue().splitlines()
-        self.assertEqual(len(lines), 2, lines)
+        self.assertEqual(len(lines), 3, lines)
         self.assertRegex(lines[0], r"snapshot 2 not written \(ValueError: ")
         self.assertIn("DROID-SLAM goes on", lines[0])
-        self.assertRegex(lines[1], r"snapshot 5 not written \(AttributeError")
+        self.assertRegex(lines[1], r"snapshot 5 not written \(ValueError: graph.ii is missing")
+        self.assertRegex(lines[2], r"snapshot 6 not written \(RuntimeError: CUDA error")
         self.assertEqual(sorted(os.listdir(os.path.join(self.dir, "out"))), ["window_000001.npz"])
 
 
@@ -619,11 +628,15 @@ class ConverterTest(unittest.TestCase):
 
         Tensor.__module__, Tensor.__qualname__ = "torch", "Tensor"
         fake.Tensor = Tensor
+        real = sys.modules.get("torch")  # another suite of this run may have imported torch
         sys.modules["torch"] = fake
         try:
             path = self.save("t.pkl", {"poses": Tensor()})
         finally:
-            del sys.modules["torch"]
+            if real is None:
+                del sys.modules["torch"]
+            else:
+                sys.modules["torch"] = real
         # Whether or not torch is installed here: a 'torch' that cannot be imported shadows it.
         shadow = os.path.join(self.dir, "no_torch", "torch")
         os.makedirs(shadow)
