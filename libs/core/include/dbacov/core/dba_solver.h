@@ -76,7 +76,7 @@ struct DbaSolverOptions {
   Ordering ordering = Ordering::Auto;
   /// Called after every iteration with the summary so far (iterations, cost, gradient), e.g. to
   /// show the progress of a long solve; an exception it throws ends the solve.
-  std::function<void(const DbaSolverSummary&)> on_iteration;
+  std::function<void(const DbaSolverSummary&)> on_iteration = nullptr;
 
   /// Throws std::invalid_argument for non-positive or non-finite values.
   void validate() const;
