@@ -208,7 +208,7 @@ class ScopedEnv {
 };
 
 /// A deflate bomb: a valid two-keyframe snapshot on a 256×256 grid of constant planes, which
-/// deflate packs about 1000:1 (~2.6 MB of arrays in ~10 kB).
+/// deflate packs about 1000:1 (~2.5 MiB of arrays in ~10 KiB).
 std::string writeDeflateBomb(const testing::TempDir& dir) {
   Snapshot s = testing::tinySnapshot(1, 1, 2).snapshot;
   s.H = s.W = 256;
@@ -229,19 +229,18 @@ TEST(HugeSizes, DeflateBombIsRefusedByTheMemoryBudgetBeforeInflating) {
   {
     const ScopedEnv budget("DBACOV_MEMORY_BUDGET", "1M");
     const auto [message, largest] = npzRefusal(path);
-    EXPECT_EQ(std::regex_replace(message, std::regex("[0-9.]+ (kB|MB)"), "#"),
+    EXPECT_EQ(std::regex_replace(message, std::regex("[0-9.]+ (KiB|MiB)"), "#"),
               path +
                   ": its arrays declare # uncompressed (the largest, key 'target', #; the "
-                  "archive itself is #), more than the memory budget of # (a third of this "
-                  "process's memory, at most 4 GiB; the environment variable "
-                  "DBACOV_MEMORY_BUDGET, e.g. 16G, sets another)");
-    EXPECT_NE(message.find("budget of 1.0 MB"), std::string::npos) << message;
+                  "archive itself is #), more than the memory budget of # (set by "
+                  "DBACOV_MEMORY_BUDGET)");
+    EXPECT_NE(message.find("budget of 1.0 MiB"), std::string::npos) << message;
     EXPECT_LT(largest, kMiB);
     // The CLI: that message, exit 1 (every snapshot failed), no output written.
     const auto r = testing::runApp(app::runCovarianceApp, "dba-covariance",
                                    {"-i", path, "--csv", dir.file("k.csv")});
     EXPECT_EQ(r.code, 1);
-    EXPECT_NE(r.err.find("more than the memory budget of 1.0 MB"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("more than the memory budget of 1.0 MiB"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir.file("k.csv")));
   }
   // Without the budget's override the same file is an ordinary snapshot.
@@ -254,20 +253,20 @@ TEST(HugeSizes, SimulatorRefusesASnapshotBeyondTheMemoryBudgetBeforeTheWork) {
   const auto r = testing::runApp(app::runSimulApp, "simul-dba",
                                  {"-o", dir.file("w"), "--mode", "whole", "--keyframes", "8"});
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(std::regex_replace(r.err, std::regex("[0-9]+ edges|[0-9.]+ (kB|MB)"), "#"),
+  EXPECT_EQ(std::regex_replace(r.err, std::regex("[0-9]+ edges|[0-9.]+ (KiB|MiB)"), "#"),
             "simul-dba: error: snapshot 0 would hold # of arrays (8 keyframes, # on a 48x64 "
-            "grid), more than the memory budget of # (DBACOV_MEMORY_BUDGET sets it): ask for "
+            "grid), more than the memory budget of # (set by DBACOV_MEMORY_BUDGET): ask for "
             "fewer keyframes, a smaller grid or --mode sliding-window\n");
   EXPECT_FALSE(std::filesystem::exists(dir.file("w")));
 }
 
 TEST(HugeSizes, MemoryBudgetIsASizeOrTheRunStops) {
-  EXPECT_GT(io::memoryBudgetBytes(), 0u);
-  EXPECT_LE(io::memoryBudgetBytes(), io::kDefaultMemoryBudget);
+  EXPECT_GT(io::memoryBudget().bytes, 0u);
+  EXPECT_LE(io::memoryBudget().bytes, io::kDefaultMemoryBudget);
   for (const char* bad : {"0", "-1", "lots", "8Q", "nan", "1e40"}) {
     const ScopedEnv budget("DBACOV_MEMORY_BUDGET", bad);
     try {
-      io::memoryBudgetBytes();
+      io::memoryBudget();
       ADD_FAILURE() << bad << " accepted";
     } catch (const InputError& e) {
       EXPECT_EQ(std::string(e.what()), std::string("DBACOV_MEMORY_BUDGET='") + bad +
@@ -276,10 +275,12 @@ TEST(HugeSizes, MemoryBudgetIsASizeOrTheRunStops) {
     }
   }
   const ScopedEnv budget("DBACOV_MEMORY_BUDGET", "1.5G");
-  EXPECT_EQ(io::memoryBudgetBytes(), std::uint64_t{3} << 29);
+  EXPECT_EQ(io::memoryBudget().bytes, std::uint64_t{3} << 29);
+  EXPECT_EQ(io::memoryBudget().source, "set by DBACOV_MEMORY_BUDGET");
   EXPECT_EQ(io::sizeText(17), "17 bytes");
-  EXPECT_EQ(io::sizeText(5'312'000'000), "5.3 GB");
-  EXPECT_EQ(io::sizeText(812'400'000), "812 MB");
+  EXPECT_EQ(io::sizeText(5'312'000'000), "4.9 GiB");
+  EXPECT_EQ(io::sizeText(812'400'000), "775 MiB");
+  EXPECT_EQ(io::sizeText(std::uint64_t{4} << 30), "4.0 GiB");
 }
 
 }  // namespace huge_sizes

@@ -1,4 +1,5 @@
 #include "dbacov/app/covariance_app.h"
+#include "dbacov/app/run_summary.h"
 
 #include <memory>
 
@@ -185,7 +186,7 @@ class Run {
       try {
         sinks_[i]->commit();
       } catch (const std::exception& e) {
-        err_ << "dba-covariance: error: " << e.what() << '\n';
+        err_ << "dba-covariance: error: " << failureMessage(e) << '\n';
         sum_.outputNotWritten();
         if (opt_.policy == FailurePolicy::FailFast) break;
       }
@@ -193,13 +194,13 @@ class Run {
     try {
       selfcal_.commit();  // --edge-csv
     } catch (const std::exception& e) {
-      err_ << "dba-covariance: error: " << e.what() << '\n';
+      err_ << "dba-covariance: error: " << failureMessage(e) << '\n';
       sum_.outputNotWritten();
     }
     try {
       group.publish();
     } catch (const std::exception& e) {
-      err_ << "dba-covariance: error: " << e.what() << '\n';
+      err_ << "dba-covariance: error: " << failureMessage(e) << '\n';
       sum_.outputNotWritten();
     }
     if (graph && !graph->summary().empty() && !opt_.quiet)
@@ -266,7 +267,8 @@ class Run {
       } catch (const std::exception& e) {
         broken_[i] = true;
         added = false;
-        if (!report(classifyFailure(e, true), s.source, s.name() + ": " + e.what(), e.what()))
+        if (!report(classifyFailure(e, true), s.source, s.name() + ": " + failureMessage(e),
+                    failureMessage(e)))
           return false;
       }
     }
@@ -332,7 +334,7 @@ int runCovariance(const CovarianceAppOptions& opt, std::ostream& err) {
     run.commit(graph);
     return run.finish();
   } catch (const std::exception& e) {
-    err << "dba-covariance: error: " << e.what() << '\n';
+    err << "dba-covariance: error: " << failureMessage(e) << '\n';
     return 1;
   }
 }

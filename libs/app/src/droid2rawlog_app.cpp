@@ -129,7 +129,7 @@ Exit status: 0 success, 1 when any input failed, 2 on bad usage.)TXT");
     // No snapshot converted: nothing is committed, a previous rawlog stays untouched.
     if (sum.processed > 0 && (!fail_fast || sum.failed() == 0)) writer->commit();
   } catch (const std::exception& e) {
-    err << "droid2rawlog: error: " << e.what() << '\n';
+    err << "droid2rawlog: error: " << failureMessage(e) << '\n';
     return 1;
   }
   if (!quiet) {

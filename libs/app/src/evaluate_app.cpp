@@ -1,4 +1,5 @@
 #include "dbacov/app/evaluate_app.h"
+#include "dbacov/app/run_summary.h"
 
 #include <cmath>
 #include <cstdio>
@@ -354,7 +355,7 @@ int runEvaluate(const EvaluateOptions& o, std::ostream& out, std::ostream& err) 
                                 [&](std::ostream& os) { os << samplesCsv(sections); });
     }
   } catch (const std::exception& e) {
-    err << "dba-evaluate: error: " << e.what() << '\n';
+    err << "dba-evaluate: error: " << failureMessage(e) << '\n';
     return 1;
   }
   return failed ? 1 : 0;

@@ -1,4 +1,5 @@
 #include "dbacov/app/posegraph_app.h"
+#include "dbacov/app/run_summary.h"
 
 #include <filesystem>
 #include <fstream>
@@ -249,7 +250,7 @@ Exit status: 0 success, 1 input/output or numerical failure, 2 bad usage.)");
           << ", max gradient " << refine.final_gradient;
     err << '\n';
   } catch (const std::exception& e) {
-    err << "dba-posegraph: error: " << e.what() << '\n';
+    err << "dba-posegraph: error: " << failureMessage(e) << '\n';
     return 1;
   }
   return 0;

@@ -56,8 +56,8 @@ FailureKind classifyFailure(const std::exception& e, bool writing) {
 
 std::string failureMessage(const std::exception& e) {
   if (dynamic_cast<const std::bad_alloc*>(&e))
-    return "out of memory: the process could not allocate what this snapshot needs (a lower "
-           "DBACOV_MEMORY_BUDGET refuses such inputs before reading them)";
+    return "out of memory: the process could not allocate what this input needs (for .npz "
+           "snapshots, a lower DBACOV_MEMORY_BUDGET refuses such inputs before reading them)";
   return e.what();
 }
 

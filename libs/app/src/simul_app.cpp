@@ -1,4 +1,5 @@
 #include "dbacov/app/simul_app.h"
+#include "dbacov/app/run_summary.h"
 
 #include <cstdio>
 #include <filesystem>
@@ -58,27 +59,26 @@ bad usage.)";
 
 namespace {
 
-/// Throws InputError, before any work, when a snapshot of `sc` would hold more arrays than a
-/// reader accepts (io::memoryBudgetBytes): a whole trajectory of thousands of keyframes or the
-/// largest grids.
+/// Throws InputError, before the simulation, when a snapshot of `sc` would hold more arrays than a
+/// reader accepts (io::memoryBudget): a whole trajectory of thousands of keyframes or the largest
+/// grids.
 void checkSnapshotSizes(const sim::Scenario& sc) {
   const sim::ScenarioConfig& c = sc.config();
   const std::uint64_t plane = static_cast<std::uint64_t>(c.camera.H) * c.camera.W * 4;
-  const std::uint64_t budget = io::memoryBudgetBytes();
+  const io::MemoryBudget budget = io::memoryBudget();
   for (int s = 0; s < sc.numSnapshots(); ++s) {
     const std::uint64_t edges = sc.edges(s).size();
     const std::uint64_t keyframes = c.mode == sim::SimulationMode::WholeTrajectory
                                         ? static_cast<std::uint64_t>(sc.numKeyframes())
                                         : static_cast<std::uint64_t>(s + c.window);
     const std::uint64_t bytes = edges * 4 * plane + keyframes * 2 * plane;
-    if (bytes > budget)
+    if (bytes > budget.bytes)
       throw InputError("snapshot " + std::to_string(s) + " would hold " + io::sizeText(bytes) +
                        " of arrays (" + std::to_string(keyframes) + " keyframes, " +
                        std::to_string(edges) + " edges on a " + std::to_string(c.camera.H) + "x" +
                        std::to_string(c.camera.W) + " grid), more than the memory budget of " +
-                       io::sizeText(budget) +
-                       " (DBACOV_MEMORY_BUDGET sets it): ask for fewer keyframes, a smaller grid "
-                       "or --mode sliding-window");
+                       io::sizeText(budget.bytes) + " (" + budget.source +
+                       "): ask for fewer keyframes, a smaller grid or --mode sliding-window");
   }
 }
 
@@ -163,7 +163,7 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
         ++written;
       } catch (const std::exception& e) {
         progress.clear();
-        err << "simul-dba: error: snapshot " << s << ": " << e.what() << '\n';
+        err << "simul-dba: error: snapshot " << s << ": " << failureMessage(e) << '\n';
         ++failed;
       }
     }
@@ -181,7 +181,7 @@ int runSimulApp(int argc, const char* const* argv, std::ostream& out, std::ostre
     io::writeFileAtomically(out_dir + "/scenario.json",
                             [&](std::ostream& os) { os << sim::scenarioConfigToJson(config); });
   } catch (const std::exception& e) {
-    err << "simul-dba: error: " << e.what() << '\n';
+    err << "simul-dba: error: " << failureMessage(e) << '\n';
     return 1;
   }
   if (!quiet) {

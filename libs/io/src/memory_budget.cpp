@@ -70,25 +70,28 @@ std::uint64_t parseSize(const std::string& text) {
 
 }  // namespace
 
-std::uint64_t memoryBudgetBytes() {
+MemoryBudget memoryBudget() {
   if (const char* env = std::getenv("DBACOV_MEMORY_BUDGET"); env && *env) {
     const std::uint64_t v = parseSize(env);
     if (v == 0)
       throw InputError(std::string("DBACOV_MEMORY_BUDGET='") + env +
                        "' is not a size (bytes, or a number with a K, M, G or T suffix, e.g. 8G)");
-    return v;
+    return {v, "set by DBACOV_MEMORY_BUDGET"};
   }
   const std::uint64_t usable = std::min({physicalMemory(), addressSpaceLimit(), cgroupLimit()});
-  return std::min(kDefaultMemoryBudget, usable == kUnlimited ? kUnlimited : usable / 3);
+  const char* how = "; the environment variable DBACOV_MEMORY_BUDGET, e.g. 16G, sets another";
+  if (usable != kUnlimited && usable / 3 < kDefaultMemoryBudget)
+    return {usable / 3, std::string("a third of this process's memory") + how};
+  return {kDefaultMemoryBudget, std::string("the default cap of 4 GiB") + how};
 }
 
 std::string sizeText(std::uint64_t bytes) {
-  if (bytes < 1000) return std::to_string(bytes) + (bytes == 1 ? " byte" : " bytes");
-  const char* units[] = {"kB", "MB", "GB", "TB", "PB", "EB"};
-  double v = static_cast<double>(bytes) / 1000;
+  if (bytes < 1024) return std::to_string(bytes) + (bytes == 1 ? " byte" : " bytes");
+  const char* units[] = {"KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+  double v = static_cast<double>(bytes) / 1024;
   int u = 0;
-  while (v >= 999.95 && u < 5) {
-    v /= 1000;
+  while (v >= 1023.95 && u < 5) {
+    v /= 1024;
     ++u;
   }
   char buf[32];

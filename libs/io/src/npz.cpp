@@ -264,14 +264,13 @@ void NpzReader::checkBudget(const std::vector<std::string>& keys) const {
       largest_key = key;
     }
   }
-  const std::uint64_t budget = memoryBudgetBytes();
-  if (total > budget)
+  const MemoryBudget budget = memoryBudget();
+  if (total > budget.bytes)
     throw InputError(impl_->path + ": its arrays declare " + sizeText(total) +
                      " uncompressed (the largest, key '" + largest_key + "', " + sizeText(largest) +
                      "; the archive itself is " + sizeText(impl_->file_size) +
-                     "), more than the memory budget of " + sizeText(budget) +
-                     " (a third of this process's memory, at most 4 GiB; the environment "
-                     "variable DBACOV_MEMORY_BUDGET, e.g. 16G, sets another)");
+                     "), more than the memory budget of " + sizeText(budget.bytes) + " (" +
+                     budget.source + ")");
 }
 
 std::vector<NpyArray> NpzReader::readAll(const std::vector<std::string>& keys) const {

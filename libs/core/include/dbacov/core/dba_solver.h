@@ -74,8 +74,9 @@ struct DbaSolverOptions {
   double step_tolerance = 1e-12;      ///< pose step (max norm) relative to 1 + the largest |t_wc|
   double min_inverse_depth = 1e-3;    ///< inverse depths never go below this (DROID's clamp)
   Ordering ordering = Ordering::Auto;
-  /// Called after every iteration with the summary so far (iterations, cost, gradient), e.g. to
-  /// show the progress of a long solve; an exception it throws ends the solve.
+  /// Called after every iteration but the last (whose summary solveDba returns) with the summary
+  /// so far (iterations, cost, gradient), e.g. to show the progress of a long solve; an exception
+  /// it throws ends the solve.
   std::function<void(const DbaSolverSummary&)> on_iteration = nullptr;
 
   /// Throws std::invalid_argument for non-positive or non-finite values.

@@ -69,7 +69,7 @@ class NpzReader {
   std::vector<NpyArray> readAll(const std::vector<std::string>& keys) const;
 
  private:
-  /// InputError when the members `keys` declare more than memoryBudgetBytes() together.
+  /// InputError when the members `keys` declare more than memoryBudget() allows together.
   void checkBudget(const std::vector<std::string>& keys) const;
   /// InputError when two members share a name (constructors call it).
   void checkUniqueMembers() const;
