@@ -3,20 +3,29 @@
 A file's digest holds what a change of compiler, BLAS or optimization level keeps and what a real
 change of the numbers does not:
   - text files (.csv, .g2o, .graph, .json): the text with every number replaced by '#' (its
-    layout, headers, labels and ids), kept exactly; and the numbers;
-  - .npy arrays: dtype and shape exactly; and the values;
+    layout, headers, labels and ids), kept exactly; and the numbers, grouped by where they stand
+    (a group: the numbers at one position of the lines of one layout, e.g. a CSV column or the
+    third number of every EDGE_SE3:QUAT line);
+  - .npy arrays: dtype and shape exactly; and the values (one group);
   - binary MRPT files (.rawlog, .graphbin): their size exactly. Their numbers are those of their
     text siblings (the pose rawlog holds the CSV's covariances, the .graphbin the .graph's
     edges), which are compared by value.
-The numbers of a file are compared through their count (exactly), their sum, sum of absolute
-values, sum of squares, minimum, maximum and up to 64 evenly spaced samples, each within
-RTOL relative to the file's scale (its largest absolute value, or the sample's own size).
+Each group is compared through its count and the positions of its non-finite values (exactly),
+its sum and sum of absolute values (within RTOL of the latter), its minimum and maximum (RTOL of
+the group's largest magnitude) and the sum of log|x| over its values above 1e-6 of that magnitude
+(within RTOL per value: every value's relative change counts alike). So a change of sign, a
+column scaled by 1 + 1e-3, or one value of a group of n moved by more than n·1e-6 of itself is
+caught, whatever the magnitudes of the file's other groups; values below 1e-6 of their group's
+largest (an information matrix's rounding noise beside entries of 1e15) are guarded only through
+the sums.
 
   golden_compare.py digest DIR > golden.json     the digests of every file under DIR
-  golden_compare.py check DIR golden.json        exit 1 naming each file and quantity that differs
-  golden_compare.py self-test DIR golden.json    a check that must fail: each kind of file under
-                                                 DIR perturbed by 1e-4 of a value, and it must be
-                                                 caught (exit 1 otherwise)
+  golden_compare.py check DIR golden.json        exit 1 naming each file, group and quantity
+                                                 that differs
+  golden_compare.py self-test DIR golden.json    checks that must fail: in each kind of file
+                                                 under DIR, its largest value moved by 1e-4 and
+                                                 a guarded value of median magnitude by 1e-2,
+                                                 one at a time (exit 1 when one is not caught)
 """
 
 import hashlib
@@ -30,7 +39,6 @@ import tempfile
 import numpy as np
 
 RTOL = 1e-6  # Release builds of one source agree to ~1e-12; a real change moves ~1e-3 or more
-SAMPLES = 64
 NUMBER = re.compile(r"(?<![A-Za-z_0-9.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![A-Za-z_])"
                     r"|(?<![A-Za-z_])(?:nan|inf)(?![A-Za-z_])")
 TEXT = (".csv", ".g2o", ".graph", ".json", ".tum")
@@ -38,18 +46,49 @@ BINARY = (".rawlog", ".graphbin")
 
 
 def numbers_digest(values):
+    """The digest of one group of numbers (floats rounded to 12 digits: RTOL is far coarser)."""
     v = np.asarray(values, dtype=np.float64).reshape(-1)
-    # Where the values are not finite (-inf log-determinants of held poses, NaN depths), exactly.
+    # Where the values are not finite (-inf log-determinants of held poses), exactly.
     bad = np.flatnonzero(~np.isfinite(v))
     d = {"count": int(v.size),
-         "nonfinite": hashlib.sha256(repr([(int(i), repr(v[i])) for i in bad]).encode())
-         .hexdigest()}
+         "nonfinite": [[int(i), repr(float(v[i]))] for i in bad[:8]] + ([int(bad.size)]
+                                                                         if bad.size > 8 else [])}
     v = v[np.isfinite(v)]
     if v.size:
-        idx = np.unique(np.linspace(0, v.size - 1, min(SAMPLES, v.size)).round().astype(int))
-        d.update(sum=float(v.sum()), abs=float(np.abs(v).sum()), sq=float((v * v).sum()),
-                 min=float(v.min()), max=float(v.max()), samples=[float(x) for x in v[idx]])
+        r = lambda x: float(f"{x:.12g}")
+        scale = np.abs(v).max()
+        # Σ log|x| over the values that are not rounding noise: every value's relative change
+        # counts alike, whatever its magnitude beside the others.
+        big = np.abs(v)[np.abs(v) > 1e-6 * scale]
+        d.update(sum=r(v.sum()), abs=r(np.abs(v).sum()), min=r(v.min()), max=r(v.max()),
+                 nlog=int(big.size), log=r(np.log(big).sum()))
     return d
+
+
+def text_numbers(text):
+    """[(match, group key)] of every number of `text`: a group is one position of the lines of
+    one layout."""
+    out = []
+    for line_start, line in line_spans(text):
+        key = hashlib.sha256(NUMBER.sub("#", line).encode()).hexdigest()[:8]
+        for k, m in enumerate(NUMBER.finditer(line)):
+            out.append((line_start + m.start(), line_start + m.end(), m.group(), f"{key}.{k}"))
+    return out
+
+
+def line_spans(text):
+    start = 0
+    for line in text.split("\n"):
+        yield start, line
+        start += len(line) + 1
+
+
+def text_groups(text):
+    """{group key: numbers}."""
+    groups = {}
+    for _, _, number, key in text_numbers(text):
+        groups.setdefault(key, []).append(float(number))
+    return groups
 
 
 def digest(path):
@@ -58,11 +97,12 @@ def digest(path):
         return {"size": os.path.getsize(path)}
     if name.endswith(".npy"):
         a = np.load(path, allow_pickle=False)
-        return {"layout": f"{a.dtype.str} {a.shape}", **numbers_digest(a)}
+        return {"layout": f"{a.dtype.str} {a.shape}", "groups": {"values": numbers_digest(a)}}
     if name.endswith(TEXT):
         text = open(path, encoding="utf-8").read()
         layout = hashlib.sha256(NUMBER.sub("#", text).encode()).hexdigest()
-        return {"layout": layout, **numbers_digest([float(m) for m in NUMBER.findall(text)])}
+        return {"layout": layout,
+                "groups": {k: numbers_digest(v) for k, v in text_groups(text).items()}}
     raise SystemExit(f"golden_compare: {path}: no digest for this kind of file")
 
 
@@ -75,8 +115,24 @@ def digest_tree(root):
     return dict(sorted(out.items()))
 
 
+def group_differences(where, a, b):
+    """Lines for the quantities of group digest `a` that are not golden `b` within RTOL."""
+    for key in ("count", "nonfinite", "nlog"):
+        if a.get(key) != b.get(key):
+            return [f"{where}: {key} {a.get(key)} != golden {b.get(key)}"]
+    if "sum" not in b:
+        return []
+    scale = max(abs(b["min"]), abs(b["max"]))
+    out = []
+    for key in ("sum", "abs", "min", "max", "log"):
+        ref = {"sum": b["abs"], "abs": b["abs"], "log": b["nlog"]}.get(key, scale)
+        if abs(a[key] - b[key]) > RTOL * ref:
+            out.append(f"{where}: {key} {a[key]!r} != golden {b[key]!r}")
+    return out
+
+
 def differences(now, golden):
-    """Lines naming each file and quantity of `now` that is not `golden` within the tolerances."""
+    """Lines naming each file, group and quantity of `now` that is not `golden`."""
     out = []
     for f in sorted(set(now) | set(golden)):
         if f not in golden:
@@ -86,20 +142,13 @@ def differences(now, golden):
             out.append(f"{f}: missing (the golden outputs have it)")
             continue
         a, b = now[f], golden[f]
-        for key in ("size", "layout", "count", "nonfinite"):
-            if a.get(key) != b.get(key):
-                out.append(f"{f}: {key} {a.get(key)} != golden {b.get(key)}")
-        if out and out[-1].startswith(f + ":") or "sum" not in b:
+        wrong = [f"{f}: {key} {a.get(key)} != golden {b.get(key)}" for key in ("size", "layout")
+                 if a.get(key) != b.get(key)]
+        if wrong:
+            out += wrong
             continue
-        scale = max(abs(b["min"]), abs(b["max"]), 1e-300)
-        for key in ("sum", "abs", "sq", "min", "max"):
-            ref = b["abs"] if key == "sum" else (b[key] if key != "min" else scale)
-            if abs(a[key] - b[key]) > RTOL * max(abs(ref), abs(b[key]), 1e-300):
-                out.append(f"{f}: {key} {a[key]!r} != golden {b[key]!r}")
-        for i, (x, y) in enumerate(zip(a["samples"], b["samples"])):
-            if not (x == y or abs(x - y) <= RTOL * max(abs(y), 1e-3 * scale)):
-                out.append(f"{f}: sample {i} {x!r} != golden {y!r}")
-                break
+        for g in sorted(b.get("groups", {})):
+            out += group_differences(f"{f} [{g}]", a["groups"].get(g, {}), b["groups"][g])
     return out
 
 
@@ -112,24 +161,43 @@ def check(root, golden_path, quiet=False):
     return diff
 
 
-def perturb(path):
-    """Moves one value of `path` by 1e-4 of itself (or of the file's scale): a small real change."""
+def perturb(path, which):
+    """Moves one value of `path`: the largest ("largest", by 1e-4 of itself) or one of median
+    magnitude among those that the comparison guards, above 1e-6 of their group's largest
+    ("median", by 1e-2): small real changes. False when the file has no such value."""
     name = path.lower()
+    factor = 1 + (1e-4 if which == "largest" else 1e-2)
+
+    def pick(values, groups):
+        top = {}
+        for x, g in zip(values, groups):
+            if np.isfinite(x):
+                top[g] = max(top.get(g, 0.0), abs(x))
+        ok = [i for i, (x, g) in enumerate(zip(values, groups))
+              if np.isfinite(x) and x != 0 and abs(x) > 1e-6 * top[g]]
+        if not ok:
+            return None
+        order = sorted(ok, key=lambda i: abs(values[i]))
+        return order[-1] if which == "largest" else order[len(order) // 2]
+
     if name.endswith(".npy"):
         a = np.load(path)
-        k = int(np.argmax(np.abs(a)))
-        a.flat[k] *= 1 + 1e-4
+        values = a.reshape(-1).tolist()
+        k = pick(values, [0] * len(values))
+        if k is None:
+            return False
+        a.flat[k] *= factor
         np.save(path, a)
         return True
     if name.endswith(TEXT):
         text = open(path, encoding="utf-8").read()
-        finite = [m for m in NUMBER.finditer(text) if np.isfinite(float(m.group()))]
-        best = max(finite, key=lambda m: abs(float(m.group())), default=None)
-        if best is None or float(best.group()) == 0:
+        numbers = text_numbers(text)
+        k = pick([float(n[2]) for n in numbers], [n[3] for n in numbers])
+        if k is None:
             return False
-        x = float(best.group()) * (1 + 1e-4)
+        start, end, number, _ = numbers[k]
         with open(path, "w", encoding="utf-8") as f:
-            f.write(text[:best.start()] + repr(x) + text[best.end():])
+            f.write(text[:start] + repr(float(number) * factor) + text[end:])
         return True
     if name.endswith(BINARY):
         with open(path, "ab") as f:
@@ -148,22 +216,24 @@ def self_test(root, golden_path):
         kinds.setdefault(os.path.splitext(f)[1], f)
     missed = []
     for ext, f in kinds.items():
-        with tempfile.TemporaryDirectory() as tmp:
-            copy = os.path.join(tmp, "t")
-            shutil.copytree(root, copy)
-            if perturb(os.path.join(copy, f)) and not check(copy, golden_path, quiet=True):
-                missed.append(f)
+        for which in ("largest", "median"):
+            with tempfile.TemporaryDirectory() as tmp:
+                copy = os.path.join(tmp, "t")
+                shutil.copytree(root, copy)
+                if perturb(os.path.join(copy, f), which) and not check(copy, golden_path, True):
+                    missed.append(f"{f} ({which} value)")
     if missed:
-        print("golden self-test: a perturbation of 1e-4 was not caught in " + ", ".join(missed),
+        print("golden self-test: a small change was not caught in " + ", ".join(missed),
               file=sys.stderr)
         return 1
-    print(f"golden self-test: a 1e-4 change is caught in each of {len(kinds)} kinds of file")
+    print(f"golden self-test: a change of the largest value by 1e-4 and of a median one by 1e-2 "
+          f"is caught in each of {len(kinds)} kinds of file")
     return 0
 
 
 def main(argv):
     if len(argv) == 2 and argv[0] == "digest":
-        json.dump(digest_tree(argv[1]), sys.stdout, indent=1, sort_keys=True)
+        json.dump(digest_tree(argv[1]), sys.stdout, indent=0, sort_keys=True, separators=(",", ":"))
         print()
         return 0
     if len(argv) == 3 and argv[0] == "check":

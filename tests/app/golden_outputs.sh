@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The outputs of dba-covariance on the shared DROID snapshot and on the demo sequence, compared
 # with the golden ones within tolerances (golden_compare.py: layouts and counts exactly, numbers to
-# 1e-6 of their scale), so that another compiler or BLAS passes and a real change of the numbers
-# does not. ctest runs it with --check (GoldenOutputs), which also checks that a change of 1e-4 in
-# one value of each kind of file is caught (the comparison can fail).
+# 1e-6 of the scale of their column or line position), so that another compiler or BLAS passes
+# and a real change of the numbers does not. ctest runs it with --check (GoldenOutputs), which
+# also checks that small changes of one value are caught in each kind of file (the comparison can
+# fail).
 # The stated model's outputs (--stated-model) at the top level, the CSV tables' last column
 # (noise_model) taken off; the default (self-calibrated) outputs in calibrated/.
 #   tests/app/golden_outputs.sh BUILD_DIR WORK_DIR           prints the digests
