@@ -177,19 +177,27 @@ def qualified(case, name):
 
 # --- mutations: each changes the case and returns what it did -------------------------------------
 
-def m_dtype(case):
-    name = case.pick(case.tensor_names())
-    if name is None:
-        return "nothing to change"
+def on_a_tensor(names=None):
+    """A mutation of one tensor, picked among `names` (default: every tensor of the case) and
+    passed by name; "nothing to change" when none of them is there."""
+    def wrap(mutate):
+        def run(case):
+            name = case.pick(case.tensor_names() if names is None else names)
+            return "nothing to change" if name is None else mutate(case, name)
+        run.__name__ = mutate.__name__
+        return run
+    return wrap
+
+
+@on_a_tensor()
+def m_dtype(case, name):
     dtype = DTYPES[int(case.rng.integers(0, len(DTYPES)))]
     setattr(case.owner(name), name, getattr(case.owner(name), name).to(dtype))
     return f"{qualified(case, name)} to {dtype}"
 
 
-def m_shape(case):
-    name = case.pick(case.tensor_names())
-    if name is None:
-        return "nothing to change"
+@on_a_tensor()
+def m_shape(case, name):
     t = getattr(case.owner(name), name)
     rng = case.rng
     kind = ["drop", "add", "permute", "narrow", "grow"][int(rng.integers(0, 5))]
@@ -211,22 +219,18 @@ def m_shape(case):
     return f"{qualified(case, name)} {kind} dim {dim}: shape {tuple(t.shape)}"
 
 
-def m_last_axis(case):
-    name = case.pick(("target", "weight", "target_inac", "weight_inac"))
-    if name is None:
-        return "nothing to change"
+@on_a_tensor(("target", "weight", "target_inac", "weight_inac"))
+def m_last_axis(case, name):
     t = getattr(case.owner(name), name)
     t = t[..., :1] if case.rng.integers(0, 2) else torch.cat([t, t[..., :1]], -1)
     setattr(case.owner(name), name, t)
     return f"{qualified(case, name)} last axis {t.shape[-1]}"
 
 
-def m_edge_count(case):
+@on_a_tensor(("ii", "jj", "target", "weight", "ii_inac", "jj_inac", "target_inac",
+             "weight_inac"))
+def m_edge_count(case, name):
     g, rng = case.graph, case.rng
-    name = case.pick(("ii", "jj", "target", "weight", "ii_inac", "jj_inac", "target_inac",
-                      "weight_inac"))
-    if name is None:
-        return "nothing to change"
     t = getattr(g, name)
     axis = 1 if name.startswith(("target", "weight")) else 0
     if t.dim() <= axis:
@@ -239,10 +243,8 @@ def m_edge_count(case):
     return f"graph.{name} now {t.shape[axis]} edges"
 
 
-def m_value(case):
-    name = case.pick(case.tensor_names())
-    if name is None:
-        return "nothing to change"
+@on_a_tensor()
+def m_value(case, name):
     t = getattr(case.owner(name), name)
     if t.numel() == 0:
         return f"{qualified(case, name)} is empty"
@@ -264,11 +266,9 @@ def m_value(case):
     return f"{qualified(case, name)} flat [{k}] = {v!r}"
 
 
-def m_index(case):
+@on_a_tensor(("ii", "jj", "ii_inac", "jj_inac"))
+def m_index(case, name):
     g, rng = case.graph, case.rng
-    name = case.pick(("ii", "jj", "ii_inac", "jj_inac"))
-    if name is None:
-        return "nothing to change"
     t = getattr(g, name).clone()
     if t.dim() != 1 or t.numel() == 0:
         return f"graph.{name} has shape {tuple(t.shape)}"
@@ -324,18 +324,14 @@ def m_missing(case):
     return f"{qualified(case, name)} deleted"
 
 
-def m_none(case):
-    name = case.pick(case.tensor_names())
-    if name is None:
-        return "nothing to change"
+@on_a_tensor()
+def m_none(case, name):
     setattr(case.owner(name), name, None)
     return f"{qualified(case, name)} = None"
 
 
-def m_container(case):
-    name = case.pick(case.tensor_names())
-    if name is None:
-        return "nothing to change"
+@on_a_tensor()
+def m_container(case, name):
     t = getattr(case.owner(name), name)
     kind = ["list", "numpy", "scalar", "string", "object"][int(case.rng.integers(0, 5))]
     value = {"list": lambda: t.tolist(), "numpy": lambda: t.numpy(),
@@ -346,10 +342,8 @@ def m_container(case):
     return f"{qualified(case, name)} as a {kind}"
 
 
-def m_layout(case):
-    name = case.pick(case.tensor_names())
-    if name is None:
-        return "nothing to change"
+@on_a_tensor()
+def m_layout(case, name):
     t = getattr(case.owner(name), name)
     if case.rng.integers(0, 2) and t.dim() > 0:
         t = torch.stack([t, t], dim=-1).select(-1, 0)  # same values, not contiguous
