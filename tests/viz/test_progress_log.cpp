@@ -35,12 +35,18 @@ TEST(ProgressLog, LineShowsDoneRateElapsedAndEstimate) {
             "left");
 }
 
-TEST(ProgressLog, OneLinePerPeriodOnAnInjectedClock) {
-  double t = 100;
+/// The log display (standard error not a terminal) with a 5 s period, on the clock `t`.
+Progress::Display logEveryFiveSeconds(const double& t) {
   Progress::Display d;
   d.log = true;
   d.log_period_s = 5;
-  d.clock = [&] { return t; };
+  d.clock = [&t] { return t; };
+  return d;
+}
+
+TEST(ProgressLog, OneLinePerPeriodOnAnInjectedClock) {
+  double t = 100;
+  const Progress::Display d = logEveryFiveSeconds(t);
   std::ostringstream err;
   {
     Progress p(err, 10, d);
@@ -58,10 +64,7 @@ TEST(ProgressLog, OneLinePerPeriodOnAnInjectedClock) {
 
 TEST(ProgressLog, StatusOfOneLongItemEndsTheLogLine) {
   double t = 0;
-  Progress::Display d;
-  d.log = true;
-  d.log_period_s = 5;
-  d.clock = [&] { return t; };
+  const Progress::Display d = logEveryFiveSeconds(t);
   std::ostringstream err;
   {
     Progress p(err, 1, d);
