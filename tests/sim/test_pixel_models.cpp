@@ -2,6 +2,7 @@
 // correlation function, the weight distributions' moments, and the scene's ray casting.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <random>
@@ -16,7 +17,8 @@ namespace {
 struct FieldMoments {
   double var = 0, corr = 0;
 };
-FieldMoments moments(const UnitNoiseField& field, int H, int W, int dx, int dy, int fields) {
+template <typename Field>
+FieldMoments moments(const Field& field, int H, int W, int dx, int dy, int fields) {
   std::mt19937_64 rng(11);
   double s2 = 0, sxy = 0;
   std::size_t n2 = 0, nxy = 0;
@@ -58,6 +60,79 @@ TEST(NoiseField, WhiteFieldIsUncorrelated) {
   EXPECT_NEAR(mo.corr, 0.0, 0.02);
 }
 
+TEST(NoiseField, FourierFieldHasUnitVarianceAndGaussianCorrelationAtAnyLength) {
+  const int H = 12, W = 16;
+  // Lengths within the grid and far beyond it (where UnitNoiseField refuses).
+  for (double ell : {1.5, 4.0, 60.0}) {
+    const FourierNoiseField field(ell, H, W);
+    for (auto [dx, dy] : {std::pair{1, 0}, {0, 2}, {3, 1}}) {
+      const FieldMoments mo = moments(field, H, W, dx, dy, 3000);
+      const double expected = std::exp(-(dx * dx + dy * dy) / (2 * ell * ell));
+      EXPECT_NEAR(mo.var, 1.0, 0.05) << "length " << ell;
+      EXPECT_NEAR(mo.corr, expected, 0.04)
+          << "length " << ell << ", lag (" << dx << ", " << dy << ")";
+    }
+  }
+  EXPECT_THROW(FourierNoiseField(0.0, H, W), std::invalid_argument);
+}
+
+TEST(NoiseFamily, DrawsEveryComponentWithinItsRangeAndMixesThem) {
+  const NoiseModel base;
+  const int H = 24, W = 32, draws = 2000;
+  int spread = 0, field = 0, affine = 0, outliers = 0, tails = 0, mixtures = 0;
+  double min_amp = 1e9, max_amp = 0, min_len = 1e9, max_len = 0;
+  for (int d = 0; d < draws; ++d) {
+    const NoiseModel m = drawNoiseModel(base, 1000 + d, H, W);
+    EXPECT_NO_THROW(m.validate());
+    min_amp = std::min(min_amp, m.amplitude);
+    max_amp = std::max(max_amp, m.amplitude);
+    const int on = (m.edge_scale_spread > 0) + (m.field_px > 0) + (m.affine_px > 0) +
+                   (m.outlier_fraction > 0) + (m.student_t_dof > 0);
+    spread += m.edge_scale_spread > 0;
+    tails += m.student_t_dof > 0;
+    affine += m.affine_px > 0;
+    mixtures += on >= 2;
+    if (m.field_px > 0) {
+      ++field;
+      EXPECT_TRUE(m.field_fourier);
+      EXPECT_GE(m.field_px, 0.02);
+      EXPECT_LE(m.field_px, 0.5);
+      min_len = std::min(min_len, m.field_length_px);
+      max_len = std::max(max_len, m.field_length_px);
+    }
+    if (m.outlier_fraction > 0) {
+      ++outliers;
+      EXPECT_LE(m.outlier_fraction, 0.05);
+      EXPECT_GE(m.outlier_factor, 5.0);
+      EXPECT_LE(m.outlier_factor, 30.0);
+    }
+    if (m.student_t_dof > 0) {
+      EXPECT_GE(m.student_t_dof, 3.0);
+    }
+  }
+  // ¼–4× the claimed σ, lengths from 1 px to 4 times the image, each component at its rate.
+  EXPECT_GE(min_amp, 0.25);
+  EXPECT_LT(min_amp, 0.27);
+  EXPECT_LE(max_amp, 4.0);
+  EXPECT_GT(max_amp, 3.7);
+  EXPECT_LT(min_len, 1.1);
+  EXPECT_GT(max_len, 100.0);
+  const auto rate = [&](int count, double p) {
+    EXPECT_NEAR(count / double(draws), p, 4 * std::sqrt(p * (1 - p) / draws));
+  };
+  rate(spread, 0.5);
+  rate(field, 0.5);
+  rate(affine, 0.5);
+  rate(outliers, 1.0 / 3);
+  rate(tails, 1.0 / 3);
+  EXPECT_GT(mixtures, draws / 2);
+  // The same seed, the same model; another seed, another.
+  EXPECT_EQ(describe(drawNoiseModel(base, 7, H, W)), describe(drawNoiseModel(base, 7, H, W)));
+  EXPECT_NE(describe(drawNoiseModel(base, 7, H, W)), describe(drawNoiseModel(base, 8, H, W)));
+  EXPECT_EQ(parseNoiseFamily("open"), NoiseFamily::Open);
+  EXPECT_THROW(parseNoiseFamily("closed"), std::invalid_argument);
+}
+
 TEST(NoiseField, RejectsInvalidModels) {
   NoiseModel m;
   m.type = NoiseModel::Type::Correlated;
@@ -67,6 +142,12 @@ TEST(NoiseField, RejectsInvalidModels) {
   m.amplitude = -1;
   EXPECT_THROW(m.validate(), std::invalid_argument);
   EXPECT_THROW(parseNoiseType("pink"), std::invalid_argument);
+  m.amplitude = 1;
+  m.student_t_dof = 2;  // no finite variance
+  EXPECT_THROW(m.validate(), std::invalid_argument);
+  m.student_t_dof = 0;
+  m.edge_scale_spread = -0.1;
+  EXPECT_THROW(m.validate(), std::invalid_argument);
 }
 
 TEST(Weights, DistributionsHaveTheirClosedFormMoments) {

@@ -115,6 +115,74 @@ TEST(Scenario, CorrelatedTargetsKeepTheMarginalAndCorrelateNeighbours) {
   EXPECT_NEAR(lag / nl, std::exp(-1.0 / 8.0), 0.06);
 }
 
+/// Excess kurtosis and variance of the normalized errors of runs [0, runs) of snapshot 0.
+std::pair<double, double> varianceAndKurtosis(const Scenario& sc, int runs) {
+  double s2 = 0, s4 = 0;
+  std::size_t n = 0;
+  for (int run = 0; run < runs; ++run)
+    for (int axis = 0; axis < 2; ++axis)
+      for (const auto& edge : normalizedErrors(sc, sc.simulate(0, run), axis))
+        for (const auto& [p, z] : edge) {
+          s2 += z * z;
+          s4 += z * z * z * z;
+          ++n;
+        }
+  const double var = s2 / n;
+  return {var, s4 / n / (var * var) - 3};
+}
+
+TEST(Scenario, StudentTailsKeepTheClaimedVarianceWithTheirKurtosis) {
+  ScenarioConfig c = tinyWhole();
+  c.weight_scale = 25;
+  c.noise.student_t_dof = 6;  // excess kurtosis 6 / (ν − 4) = 3
+  const auto [var, kurtosis] = varianceAndKurtosis(Scenario(c), 12);
+  EXPECT_NEAR(var, 1.0, 0.08);
+  EXPECT_GT(kurtosis, 1.5);
+  c.noise.student_t_dof = 0;
+  const auto [var0, kurtosis0] = varianceAndKurtosis(Scenario(c), 12);
+  EXPECT_NEAR(var0, 1.0, 0.05);
+  EXPECT_NEAR(kurtosis0, 0.0, 0.3);
+}
+
+TEST(Scenario, EdgeScaleSpreadGivesEachEdgeItsOwnWhiteScale) {
+  ScenarioConfig c = tinyWhole(5);
+  c.weight_scale = 25;
+  c.noise.edge_scale_spread = 0.5;
+  const Scenario sc(c);
+  // log of each edge's error variance: spread 2·0.5 = 1 in log-variance across edges, against the
+  // sampling noise of ~100 pixels (≈ 0.14) without the spread.
+  std::vector<double> logvar;
+  for (const auto& edge : normalizedErrors(sc, sc.simulate(0, 3), 0)) {
+    if (edge.size() < 50) continue;
+    double s2 = 0;
+    for (const auto& [p, z] : edge) s2 += z * z;
+    logvar.push_back(std::log(s2 / edge.size()));
+  }
+  ASSERT_GE(logvar.size(), 6u);
+  double mean = 0, sd = 0;
+  for (double v : logvar) mean += v / logvar.size();
+  for (double v : logvar) sd += (v - mean) * (v - mean) / (logvar.size() - 1);
+  EXPECT_GT(std::sqrt(sd), 0.5);
+  EXPECT_LT(std::sqrt(sd), 1.6);
+}
+
+TEST(Scenario, OpenNoiseFamilyDrawsOneModelPerRun) {
+  ScenarioConfig c = tinySliding(10, 4);
+  c.solve = false;
+  c.noise_family = NoiseFamily::Open;
+  const Scenario sc(c);
+  const SimulatedSnapshot a = sc.simulate(0, 5), b = sc.simulate(1, 5), other = sc.simulate(0, 6);
+  EXPECT_EQ(describe(a.noise), describe(b.noise));  // one model per run, shared by its snapshots
+  EXPECT_NE(describe(a.noise), describe(other.noise));
+  // The fixed family reports the configured model.
+  c.noise_family = NoiseFamily::Fixed;
+  EXPECT_EQ(describe(Scenario(c).simulate(0, 5).noise), describe(c.noise));
+  // Every drawn model simulates (fields beyond the grid included).
+  c.noise_family = NoiseFamily::Open;
+  const Scenario open(c);
+  for (int run = 0; run < 20; ++run) EXPECT_NO_THROW(open.simulate(0, run)) << run;
+}
+
 TEST(Scenario, WeightedPixelsAreVisibleInTheTargetView) {
   ScenarioConfig c = tinyWhole(10);
   c.trajectory.type = TrajectoryType::Loop;
@@ -317,6 +385,10 @@ TEST(ScenarioJson, RoundTripsEverySetting) {
   c.noise.correlation_length_px = 4.5;
   c.noise.amplitude = 0.5;
   c.noise.persistence = NoiseModel::Persistence::Edge;
+  c.noise.student_t_dof = 5;
+  c.noise.edge_scale_spread = 0.3;
+  c.noise.field_fourier = true;
+  c.noise_family = NoiseFamily::Open;
   c.gauge_hold = GaugeHold::Estimate;
   c.gauge.type = GaugeOptions::Type::Minimal;
   c.perturbation.rotation = 0.03;
@@ -330,6 +402,10 @@ TEST(ScenarioJson, RoundTripsEverySetting) {
   EXPECT_EQ(back.scene.boxes.size(), 1u);
   EXPECT_EQ(back.noise.correlation_length_px, 4.5);
   EXPECT_EQ(back.noise.persistence, NoiseModel::Persistence::Edge);
+  EXPECT_EQ(back.noise.student_t_dof, 5);
+  EXPECT_EQ(back.noise.edge_scale_spread, 0.3);
+  EXPECT_TRUE(back.noise.field_fourier);
+  EXPECT_EQ(back.noise_family, NoiseFamily::Open);
   EXPECT_EQ(back.gauge_hold, GaugeHold::Estimate);
   EXPECT_EQ(*back.camera.fx, 33.0);
   EXPECT_EQ(back.solver.max_iterations, 7);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 namespace dbacov::sim {
@@ -68,6 +69,87 @@ void NoiseModel::validate() const {
   if (!(outlier_fraction >= 0 && outlier_fraction < 1) ||
       !(outlier_factor >= 0 && std::isfinite(outlier_factor)))
     throw std::invalid_argument("noise: outlier_fraction must be in [0, 1), outlier_factor >= 0");
+  if (!(edge_scale_spread >= 0 && std::isfinite(edge_scale_spread)))
+    throw std::invalid_argument("noise: edge_scale_spread must be finite and >= 0");
+  if (!(student_t_dof == 0 || (student_t_dof > 2 && std::isfinite(student_t_dof))))
+    throw std::invalid_argument(
+        "noise: student_t_dof must be 0 (Gaussian) or > 2 (a finite variance)");
+}
+
+NoiseFamily parseNoiseFamily(const std::string& name) {
+  if (name == "fixed") return NoiseFamily::Fixed;
+  if (name == "open") return NoiseFamily::Open;
+  throw std::invalid_argument("unknown noise family '" + name + "', expected fixed or open");
+}
+
+std::string toString(NoiseFamily f) {
+  return f == NoiseFamily::Fixed ? "fixed" : "open";
+}
+
+NoiseModel drawNoiseModel(const NoiseModel& base, std::uint64_t seed, int H, int W) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * u01(rng); };
+  const auto log2Uniform = [&](double lo, double hi) {
+    return std::exp2(uniform(std::log2(lo), std::log2(hi)));
+  };
+  // Every component is drawn whether or not it is switched on, so that the draws of one component
+  // do not depend on another's switch.
+  NoiseModel m = base;
+  m.amplitude = base.amplitude * std::exp2(uniform(-2.0, 2.0));
+  const double spread = uniform(0.0, 0.7);
+  m.edge_scale_spread = u01(rng) < 0.5 ? spread : 0.0;
+  const double length = log2Uniform(1.0, 4.0 * std::max(H, W)), field = log2Uniform(0.02, 0.5);
+  const bool with_field = u01(rng) < 0.5;
+  m.field_px = with_field ? field : 0.0;
+  m.field_length_px = length;
+  m.field_fourier = true;
+  const double affine = log2Uniform(0.005, 0.15);
+  m.affine_px = u01(rng) < 0.5 ? affine : 0.0;
+  const double fraction = uniform(0.0, 0.05), factor = uniform(5.0, 30.0);
+  const bool with_outliers = u01(rng) < 1.0 / 3.0;
+  m.outlier_fraction = with_outliers ? fraction : 0.0;
+  m.outlier_factor = with_outliers ? factor : base.outlier_factor;
+  const double dof = uniform(3.0, 30.0);
+  m.student_t_dof = u01(rng) < 1.0 / 3.0 ? dof : 0.0;
+  m.validate();
+  return m;
+}
+
+std::string describe(const NoiseModel& m) {
+  char buf[256];
+  std::string out;
+  const auto add = [&out](const char* text) {
+    out += (out.empty() ? "" : ", ") + std::string(text);
+  };
+  std::snprintf(buf, sizeof buf, "white %.2fx", m.amplitude);
+  add(buf);
+  if (m.type == NoiseModel::Type::Correlated) {
+    std::snprintf(buf, sizeof buf, "correlated %.1f px", m.correlation_length_px);
+    add(buf);
+  }
+  if (m.edge_scale_spread > 0) {
+    std::snprintf(buf, sizeof buf, "edge spread %.2f", m.edge_scale_spread);
+    add(buf);
+  }
+  if (m.student_t_dof > 0) {
+    std::snprintf(buf, sizeof buf, "t%.1f", m.student_t_dof);
+    add(buf);
+  }
+  if (m.field_px > 0) {
+    std::snprintf(buf, sizeof buf, "field %.1f px x %.3f px", m.field_length_px, m.field_px);
+    add(buf);
+  }
+  if (m.affine_px > 0) {
+    std::snprintf(buf, sizeof buf, "affine %.3f px", m.affine_px);
+    add(buf);
+  }
+  if (m.outlier_fraction > 0) {
+    std::snprintf(buf, sizeof buf, "outliers %.1f %% x%.0f", 100 * m.outlier_fraction,
+                  m.outlier_factor);
+    add(buf);
+  }
+  return out;
 }
 
 NoiseModel::Type parseNoiseType(const std::string& name) {
@@ -140,6 +222,27 @@ std::vector<double> UnitNoiseField::sample(std::mt19937_64& rng) const {
         acc += kernel_[u] * rows[static_cast<std::size_t>(y + u) * W_ + x];
       f[static_cast<std::size_t>(y) * W_ + x] = acc;
     }
+  return f;
+}
+
+FourierNoiseField::FourierNoiseField(double correlation_length_px, int H, int W, int features)
+    : length_(correlation_length_px), H_(H), W_(W), features_(features) {
+  if (!(length_ > 0 && std::isfinite(length_)))
+    throw std::invalid_argument("noise: field_length_px must be positive");
+  if (features_ < 1) throw std::invalid_argument("noise: a Fourier field needs a feature");
+}
+
+std::vector<double> FourierNoiseField::sample(std::mt19937_64& rng) const {
+  std::normal_distribution<double> omega(0.0, 1.0 / length_);
+  std::uniform_real_distribution<double> phase(0.0, 2.0 * M_PI);
+  std::vector<double> f(static_cast<std::size_t>(H_) * W_, 0.0);
+  const double a = std::sqrt(2.0 / features_);
+  for (int q = 0; q < features_; ++q) {
+    const double wx = omega(rng), wy = omega(rng), b = phase(rng);
+    for (int y = 0; y < H_; ++y)
+      for (int x = 0; x < W_; ++x)
+        f[static_cast<std::size_t>(y) * W_ + x] += a * std::cos(wx * x + wy * y + b);
+  }
   return f;
 }
 

@@ -50,6 +50,7 @@ enum Purpose : std::uint64_t {
   kEdgeWeights = 9,
   kEdgeNoise = 10,
   kEdgeExtraNoise = 11,
+  kNoiseFamily = 12,  ///< the open family's error model of a run
 };
 
 /// Stereo: the rig transform Y = T·X from the left camera to the right one.
@@ -255,19 +256,37 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run, const Snapshot* p
   // Confidences (fixed by the scenario) and targets (redrawn per run).
   std::mt19937_64 rng_w(mixSeed(c.seed, kWeights, s)), rng_n(mixSeed(c.seed, kNoise, s, run));
   std::uniform_real_distribution<double> u01(0.0, 1.0);
-  const UnitNoiseField field(c.noise, H, W);
+  // The run's error model: the configured one, or one drawn from the open family per run (every
+  // snapshot of a run shares it, as the errors of one sequence share their source).
+  const NoiseModel noise = c.noise_family == NoiseFamily::Open
+                               ? drawNoiseModel(c.noise, mixSeed(c.seed, kNoiseFamily, run), H, W)
+                               : c.noise;
+  out.noise = noise;
+  const UnitNoiseField field(noise, H, W);
   // Errors beyond the claimed noise (pixel_models.h), from a stream of their own so that the
   // claimed noise of a run does not change when they are switched on.
-  NoiseModel extra_model;
-  extra_model.type = NoiseModel::Type::Correlated;
-  extra_model.correlation_length_px = c.noise.field_length_px;
-  const UnitNoiseField extra_field(extra_model, H, W);
+  std::optional<UnitNoiseField> extra_field;
+  std::optional<FourierNoiseField> fourier_field;
+  if (noise.field_px > 0 && noise.field_fourier) {
+    fourier_field.emplace(noise.field_length_px, H, W);
+  } else if (noise.field_px > 0) {
+    NoiseModel extra_model;
+    extra_model.type = NoiseModel::Type::Correlated;
+    extra_model.correlation_length_px = noise.field_length_px;
+    extra_field.emplace(extra_model, H, W);
+  }
+  const auto sampleField = [&](std::mt19937_64& rng) {
+    return fourier_field ? fourier_field->sample(rng) : extra_field->sample(rng);
+  };
+  const double t_dof = noise.student_t_dof;
+  std::optional<std::chi_squared_distribution<double>> chi2;
+  if (t_dof > 0) chi2.emplace(t_dof);
   std::mt19937_64 rng_x(mixSeed(c.seed, kExtraNoise, s, run));
   std::normal_distribution<double> nx(0.0, 1.0);
   const int E = snap.numEdges();
   snap.target.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
   snap.weight.assign(static_cast<std::size_t>(E) * 2 * HW, 0.0f);
-  const bool per_edge = c.noise.persistence == NoiseModel::Persistence::Edge;
+  const bool per_edge = noise.persistence == NoiseModel::Persistence::Edge;
   // Image-based targets (image_flow.h): every camera rendered once per (snapshot, run), keyed by
   // keyframe (left camera) or −1 − keyframe (its right camera, stereo); with edge persistence
   // its sensor noise is the same in every snapshot (one image per keyframe and run).
@@ -327,9 +346,12 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run, const Snapshot* p
     double affine[2][3] = {{0, 0, 0}, {0, 0, 0}};
     std::vector<double> gf[2];
     for (int a = 0; a < 2; ++a) {
-      for (double& coef : affine[a]) coef = c.noise.affine_px * nx(rng_x);
-      if (c.noise.field_px > 0) gf[a] = extra_field.sample(rng_x);
+      for (double& coef : affine[a]) coef = noise.affine_px * nx(rng_x);
+      if (noise.field_px > 0) gf[a] = sampleField(rng_x);
     }
+    // The edge's own white scale (drawn only when spread, so that the other streams stay put).
+    const double edge_scale =
+        noise.edge_scale_spread > 0 ? std::exp(noise.edge_scale_spread * nx(rng_x)) : 1.0;
     for (int p = 0; p < HW; ++p) {
       const double d = disp_true_[i][p];
       const Eigen::Vector3d Y =
@@ -346,15 +368,18 @@ SimulatedSnapshot Scenario::simulate(int s, std::uint64_t run, const Snapshot* p
         if (visible) visible = d / Y.z() >= c.scene.inverseDepth(T_wc_j, xn, yn) * (1.0 - 1e-3);
       }
       const bool zero = u01(rng_w) < c.weights.zero_fraction || !visible;
-      const bool outlier = c.noise.outlier_fraction > 0 && u01(rng_x) < c.noise.outlier_fraction;
+      const bool outlier = noise.outlier_fraction > 0 && u01(rng_x) < noise.outlier_fraction;
       const double u = (p % W - K_.cx) / (0.5 * W), v = (p / W - K_.cy) / (0.5 * H);
       for (int a = 0; a < 2; ++a) {
         const float w = zero ? 0.0f : static_cast<float>(c.weights.sample(rng_w));
-        const double sigma = w > 0 ? c.noise.amplitude / std::sqrt(c.weight_scale * w) : 0.0;
+        const double sigma =
+            w > 0 ? edge_scale * noise.amplitude / std::sqrt(c.weight_scale * w) : 0.0;
         snap.weight[(static_cast<std::size_t>(e) * 2 + a) * HW + p] = w;
-        double err = sigma * n[a][p] + affine[a][0] + affine[a][1] * u + affine[a][2] * v;
-        if (c.noise.field_px > 0) err += c.noise.field_px * gf[a][p];
-        if (outlier) err *= c.noise.outlier_factor;
+        // Student-t of unit variance: z · sqrt((ν − 2) / χ²_ν).
+        const double white = chi2 ? n[a][p] * std::sqrt((t_dof - 2) / (*chi2)(rng_x)) : n[a][p];
+        double err = sigma * white + affine[a][0] + affine[a][1] * u + affine[a][2] * v;
+        if (noise.field_px > 0) err += noise.field_px * gf[a][p];
+        if (outlier) err *= noise.outlier_factor;
         snap.target[(static_cast<std::size_t>(e) * 2 + a) * HW + p] =
             static_cast<float>(proj[a] + (w > 0 ? err : 0.0));
       }

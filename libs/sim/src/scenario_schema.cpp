@@ -316,6 +316,19 @@ std::vector<ScenarioField> makeSchema() {
       "noise.outlier_fraction", "", "", [](C & c) -> auto& { return c.noise.outlier_fraction; }));
   s.push_back(field<double>(
       "noise.outlier_factor", "", "", [](C & c) -> auto& { return c.noise.outlier_factor; }));
+  s.push_back(field<double>(
+      "noise.edge_scale_spread", "", "", [](C & c) -> auto& { return c.noise.edge_scale_spread; }));
+  s.push_back(field<double>(
+      "noise.student_t_dof", "", "", [](C & c) -> auto& { return c.noise.student_t_dof; }));
+  s.push_back(field<bool>(
+      "noise.field_fourier", "", "", [](C & c) -> auto& { return c.noise.field_fourier; }));
+  s.push_back(enumField<NoiseFamily>(
+      "noise.family", "--noise-family",
+      "fixed (every run follows the noise settings) or open (every run draws its own error model: "
+      "white scale 1/4-4x, per-edge spread, random fields of 1 px to beyond the image, affine, "
+      "outliers, Student-t tails, and their mixtures; docs/apps/simul-dba.md)",
+      {"fixed", "open"}, parseNoiseFamily, toString,
+      [](C & c) -> auto& { return c.noise_family; }));
   s.push_back(field<std::string>(
       "flow.source", "--flow",
       "Targets: model (true projection + the noise model) or dis / farneback (OpenCV's dense "

@@ -19,6 +19,7 @@
 // --self-calibrate --converge). Without either the state is the scenario's, the optimum of the
 // true noise model.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -231,8 +232,165 @@ MethodSpec parseMethod(const std::string& entry) {
   return spec;
 }
 
-static int study(int argc, char** argv) {
+namespace {
+
+struct StudyPlan {
   int runs = 20, calibration_runs = 10, first_run = 1000;
+  std::vector<std::string> methods;
+  std::map<std::string, MethodSpec> specs;
+};
+
+/// The held-out rows of one source, one per method (gt's NEES already scaled by its k).
+std::map<std::string, Row> evaluateSource(const Source& src, const StudyPlan& plan, double* k) {
+  const sim::Scenario sc(src.config);
+  DbaOptions o = src.config.engineOptions();
+  o.weight_scale *= src.claimed_scale_factor;
+  o.sensor_depth_weight *= src.claimed_sensor_factor;
+  std::map<std::string, Row> rows;
+  sim::EvaluationSamples calib;
+  const auto run_all = [&](int run, bool evaluation) {
+    for (int s = 0; s < sc.numSnapshots(); ++s) {
+      sim::SimulatedSnapshot snap = sc.simulate(s, static_cast<std::uint64_t>(run));
+      if (src.claimed_stereo_factor != 1.0)
+        for (int e = 0; e < snap.snapshot.numEdges(); ++e)
+          if (snap.snapshot.ii[e] == snap.snapshot.jj[e])
+            divideEdgeWeights(snap.snapshot, e, 1.0 / src.claimed_stereo_factor);
+      const std::int64_t label = static_cast<std::int64_t>(run) * sc.numSnapshots() + s;
+      if (!evaluation) {
+        calib.append(sim::evaluateSnapshot(snap, o, label));
+        continue;
+      }
+      for (const std::string& m : plan.methods) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const MethodSpec& spec = plan.specs.at(m);
+        sim::SimulatedSnapshot solved;
+        const sim::SimulatedSnapshot* at = &snap;
+        DbaOptions oc = o;
+        // The solves' errors name the snapshot and the entry, as evaluateSnapshot's do.
+        try {
+          if (spec.state == MethodSpec::State::CalSolved) {
+            solved = snap;
+            oc = solveDbaAtCalibratedWeights(solved.snapshot, o).options;
+            at = &solved;
+          } else if (spec.state == MethodSpec::State::Solved) {
+            solved = snap;
+            solveDba(solved.snapshot, o);
+            at = &solved;
+          }
+        } catch (const NumericalError& e) {
+          throw NumericalError(snap.snapshot.name() + ": " + m + ": " + e.what(), e.keyframes());
+        } catch (const std::exception& e) {
+          throw std::runtime_error(snap.snapshot.name() + ": " + m + ": " + e.what());
+        }
+        // The bootstrap re-solves (dbacov_study); nuisance is the product's pipeline.
+        const sim::CovarianceFunction covariance =
+            spec.covariance_only ? sim::pipelineCovariance(nullptr)
+            : spec.bootstrap
+                ? sim::CovarianceFunction([&spec](const Snapshot& one, const DbaOptions& opt) {
+                    return selfCalibratedCovariance(
+                        one, opt, {},
+                        bootstrapSelfCalibration(one, opt, spec.options, spec.bootstrap_options)
+                            .calibration);
+                  })
+                : sim::pipelineCovariance(&spec.options);
+        const sim::EvaluationSamples x =
+            sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive, covariance);
+        Row& r = rows[m];
+        r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        ++r.snapshots;
+        r.samples.append(x);
+      }
+    }
+  };
+  const int first = plan.first_run, held_out = first + plan.calibration_runs;
+  for (int run = first; run < held_out; ++run) run_all(run, false);
+  for (int run = held_out; run < held_out + plan.runs; ++run) run_all(run, true);
+  *k = plan.calibration_runs > 0 ? fitInflation(calib.absolute) : 1.0;
+  if (rows.count("gt")) {
+    rows["gt"].samples.absolute = inflate(rows["gt"].samples.absolute, *k);
+    rows["gt"].samples.relative = inflate(rows["gt"].samples.relative, *k);
+  }
+  return rows;
+}
+
+void printRow(const std::string& source, const std::string& method, const Row& r) {
+  const ConsistencyStats a = summarize(r.samples.absolute), rel = summarize(r.samples.relative);
+  std::printf(
+      "| %s | %s | %.2f%s | [%.2f, %.2f] | %.2f%s | [%.2f, %.2f] | %.1f %% | %.1f %% | %.1f %% "
+      "| %.3f |\n",
+      source.c_str(), method.c_str(), a.anees, a.inside ? "" : " ✗", a.region.lower, a.region.upper,
+      rel.anees, rel.inside ? "" : " ✗", rel.region.lower, rel.region.upper,
+      100 * a.coverage_all[0], 100 * a.coverage_all[1], 100 * a.tail_95, r.seconds / r.snapshots);
+  std::fflush(stdout);
+}
+
+double quantile(std::vector<double> x, double q) {
+  std::sort(x.begin(), x.end());
+  const double at = q * static_cast<double>(x.size() - 1);
+  const std::size_t lo = static_cast<std::size_t>(at);
+  const std::size_t hi = std::min(lo + 1, x.size() - 1);
+  return x[lo] + (at - static_cast<double>(lo)) * (x[hi] - x[lo]);
+}
+
+/// The family's summary of one method over its drawn models (absolute NEES): the fraction of
+/// models above and below their χ² region, the median ANEES / DoF, the 1σ coverage's median and
+/// the quantiles of the NEES tail beyond χ²(0.95).
+void printFamilySummary(const std::string& method, const std::vector<ConsistencyStats>& stats) {
+  std::vector<double> ratio, coverage, tail;
+  int above = 0, below = 0;
+  for (const ConsistencyStats& a : stats) {
+    above += a.anees > a.region.upper;
+    below += a.anees < a.region.lower;
+    ratio.push_back(a.anees / a.dof);
+    coverage.push_back(a.coverage_all[0]);
+    tail.push_back(a.tail_95);
+  }
+  const double n = static_cast<double>(stats.size());
+  std::printf(
+      "| %s | %zu | %.1f %% | %.1f %% | %.2f | %.2f | %.1f %% [%.1f, %.1f] | %.1f %% | %.1f %% | "
+      "%.1f %% |\n",
+      method.c_str(), stats.size(), 100 * above / n, 100 * below / n, quantile(ratio, 0.5),
+      quantile(ratio, 0.9), 100 * quantile(coverage, 0.5), 100 * quantile(coverage, 0.1),
+      100 * quantile(coverage, 0.9), 100 * quantile(tail, 0.5), 100 * quantile(tail, 0.9),
+      100 * quantile(tail, 0.99));
+  std::fflush(stdout);
+}
+
+/// `count` error models drawn from the open family (pixel_models.h), model m on the study's
+/// scene in mode m mod 3 (monocular, stereo, RGB-D): one row per model and method, then the
+/// family's summary per method.
+int familyStudy(int count, std::uint64_t seed, const StudyPlan& plan) {
+  const sim::SensorMode modes[3] = {sim::SensorMode::Mono, sim::SensorMode::Stereo,
+                                    sim::SensorMode::Rgbd};
+  std::map<std::string, std::vector<ConsistencyStats>> stats;
+  for (int m = 0; m < count; ++m) {
+    const sim::SensorMode mode = modes[m % 3];
+    Source src{"", "", mode == sim::SensorMode::Mono ? issueScene() : droidScene(mode)};
+    src.config.noise = sim::drawNoiseModel(src.config.noise, sim::mixSeed(seed, m, 0),
+                                           src.config.camera.H, src.config.camera.W);
+    src.name = std::string(mode == sim::SensorMode::Mono     ? "mono"
+                           : mode == sim::SensorMode::Stereo ? "stereo"
+                                                             : "rgbd") +
+               " #" + std::to_string(m) + ": " + sim::describe(src.config.noise);
+    double k = 1;
+    const std::map<std::string, Row> rows = evaluateSource(src, plan, &k);
+    for (const std::string& method : plan.methods) {
+      printRow(src.name, method, rows.at(method));
+      stats[method].push_back(summarize(rows.at(method).samples.absolute));
+    }
+  }
+  std::printf(
+      "\n| method | models | above region | below region | ANEES/DoF median | 90 %% | 1σ median "
+      "[10 %%, 90 %%] | tail median | 90 %% | 99 %% "
+      "|\n|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const std::string& method : plan.methods) printFamilySummary(method, stats[method]);
+  return 0;
+}
+
+int study(int argc, char** argv) {
+  StudyPlan plan;
+  int family = 0;
+  std::uint64_t family_seed = 48;
   std::string sources_arg = "white,white2x,wrongscale,field,affine,affine+outliers",
               methods_arg = "raw,gt,nuisance";
   std::string source_names;
@@ -244,14 +402,14 @@ static int study(int argc, char** argv) {
       "bootstrap}, Monte Carlo over held-out runs; prints one Markdown table row per (source, "
       "method).",
       "self_calibration_study"};
-  cli.add_option("--runs", runs, "held-out (evaluation) runs per source")
+  cli.add_option("--runs", plan.runs, "held-out (evaluation) runs per source")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  cli.add_option("--calibration-runs", calibration_runs,
+  cli.add_option("--calibration-runs", plan.calibration_runs,
                  "runs that gt's variance factor is fitted on")
       ->check(CLI::Range(0, 100000))
       ->capture_default_str();
-  cli.add_option("--first-run", first_run, "seed of the first calibration run")
+  cli.add_option("--first-run", plan.first_run, "seed of the first calibration run")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cli.add_option("--sources", sources_arg, "comma-separated, of: " + source_names)
@@ -260,6 +418,12 @@ static int study(int argc, char** argv) {
                  "comma-separated: raw, gt, nuisance or bootstrap, with suffixes -g<G>, -wild, "
                  "-k0, -d0, -solved, -calsolved (see the source's header)")
       ->capture_default_str();
+  cli.add_option("--family", family,
+                 "instead of --sources: this many error models drawn from the open family "
+                 "(simul-dba --noise-family open), on the monocular, stereo and RGB-D scenes in "
+                 "turn, then the family's summary per method")
+      ->check(CLI::Range(0, 100000));
+  cli.add_option("--family-seed", family_seed, "seed of the family's draws")->capture_default_str();
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -274,11 +438,11 @@ static int study(int argc, char** argv) {
       return 2;
     }
   }
-  const std::vector<std::string> want_sources = split(sources_arg), methods = split(methods_arg);
-  std::map<std::string, MethodSpec> specs;  // every entry checked before any run
-  for (const std::string& m : methods) {
+  const std::vector<std::string> want_sources = split(sources_arg);
+  plan.methods = split(methods_arg);
+  for (const std::string& m : plan.methods) {  // every entry checked before any run
     try {
-      specs[m] = parseMethod(m);
+      plan.specs[m] = parseMethod(m);
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "self_calibration_study: --methods: %s\n", e.what());
       return 2;
@@ -287,94 +451,21 @@ static int study(int argc, char** argv) {
   std::printf(
       "| source | method | ANEES abs | region | ANEES rel | region | 1σ | 2σ | NEES > χ²(0.95) "
       "| s/snapshot |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  if (family > 0) return familyStudy(family, family_seed, plan);
   for (const Source& src : allSources()) {
     bool wanted = false;
     for (const std::string& w : want_sources) wanted |= w == src.name;
     if (!wanted) continue;
-    const sim::Scenario sc(src.config);
-    DbaOptions o = src.config.engineOptions();
-    o.weight_scale *= src.claimed_scale_factor;
-    o.sensor_depth_weight *= src.claimed_sensor_factor;
-    std::map<std::string, Row> rows;
-    sim::EvaluationSamples calib;
-    const auto run_all = [&](int run, bool evaluation) {
-      for (int s = 0; s < sc.numSnapshots(); ++s) {
-        sim::SimulatedSnapshot snap = sc.simulate(s, static_cast<std::uint64_t>(run));
-        if (src.claimed_stereo_factor != 1.0)
-          for (int e = 0; e < snap.snapshot.numEdges(); ++e)
-            if (snap.snapshot.ii[e] == snap.snapshot.jj[e])
-              divideEdgeWeights(snap.snapshot, e, 1.0 / src.claimed_stereo_factor);
-        const std::int64_t label = static_cast<std::int64_t>(run) * sc.numSnapshots() + s;
-        if (!evaluation) {
-          calib.append(sim::evaluateSnapshot(snap, o, label));
-          continue;
-        }
-        for (const std::string& m : methods) {
-          const auto t0 = std::chrono::steady_clock::now();
-          sim::EvaluationSamples x;
-          const MethodSpec& spec = specs.at(m);
-          sim::SimulatedSnapshot solved;
-          const sim::SimulatedSnapshot* at = &snap;
-          DbaOptions oc = o;
-          // The solves' errors name the snapshot and the entry, as evaluateSnapshot's do.
-          try {
-            if (spec.state == MethodSpec::State::CalSolved) {
-              solved = snap;
-              oc = solveDbaAtCalibratedWeights(solved.snapshot, o).options;
-              at = &solved;
-            } else if (spec.state == MethodSpec::State::Solved) {
-              solved = snap;
-              solveDba(solved.snapshot, o);
-              at = &solved;
-            }
-          } catch (const NumericalError& e) {
-            throw NumericalError(snap.snapshot.name() + ": " + m + ": " + e.what(), e.keyframes());
-          } catch (const std::exception& e) {
-            throw std::runtime_error(snap.snapshot.name() + ": " + m + ": " + e.what());
-          }
-          // The bootstrap re-solves (dbacov_study); nuisance is the product's pipeline.
-          const sim::CovarianceFunction covariance =
-              spec.covariance_only ? sim::pipelineCovariance(nullptr)
-              : spec.bootstrap
-                  ? sim::CovarianceFunction([&spec](const Snapshot& one, const DbaOptions& opt) {
-                      return selfCalibratedCovariance(
-                          one, opt, {},
-                          bootstrapSelfCalibration(one, opt, spec.options, spec.bootstrap_options)
-                              .calibration);
-                    })
-                  : sim::pipelineCovariance(&spec.options);
-          x = sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive, covariance);
-          Row& r = rows[m];
-          r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-          ++r.snapshots;
-          r.samples.append(x);
-        }
-      }
-    };
-    for (int run = first_run; run < first_run + calibration_runs; ++run) run_all(run, false);
-    for (int run = first_run + calibration_runs; run < first_run + calibration_runs + runs; ++run)
-      run_all(run, true);
-    const double k = calibration_runs > 0 ? fitInflation(calib.absolute) : 1.0;
-    for (const std::string& m : methods) {
-      Row& r = rows[m];
-      if (m == "gt") {
-        r.samples.absolute = inflate(r.samples.absolute, k);
-        r.samples.relative = inflate(r.samples.relative, k);
-      }
-      const ConsistencyStats a = summarize(r.samples.absolute), rel = summarize(r.samples.relative);
-      std::printf(
-          "| %s | %s | %.2f%s | [%.2f, %.2f] | %.2f%s | [%.2f, %.2f] | %.1f %% | %.1f %% | %.1f %% "
-          "| %.3f |\n",
-          src.name.c_str(),
-          m == "gt" ? ("gt (k=" + std::to_string(k).substr(0, 6) + ")").c_str() : m.c_str(),
-          a.anees, a.inside ? "" : " ✗", a.region.lower, a.region.upper, rel.anees,
-          rel.inside ? "" : " ✗", rel.region.lower, rel.region.upper, 100 * a.coverage_all[0],
-          100 * a.coverage_all[1], 100 * a.tail_95, r.seconds / r.snapshots);
-      std::fflush(stdout);
-    }
+    double k = 1;
+    const std::map<std::string, Row> rows = evaluateSource(src, plan, &k);
+    for (const std::string& m : plan.methods)
+      printRow(src.name, m == "gt" ? "gt (k=" + std::to_string(k).substr(0, 6) + ")" : m,
+               rows.at(m));
   }
   return 0;
 }
+
+}  // namespace
 
 int main(int argc, char** argv) {
   // An error (a snapshot's numerical breakdown, a bad option value) is a line naming it and exit 1,

@@ -18,6 +18,7 @@
 // marginal variance is exactly 1.
 #pragma once
 
+#include <cstdint>
 #include <random>
 #include <string>
 #include <vector>
@@ -68,10 +69,42 @@ struct NoiseModel {
   /// A fraction of the pixels (both axes) whose total error is multiplied by outlier_factor.
   double outlier_fraction = 0.0;
   double outlier_factor = 10.0;
+  /// Each edge's white errors scaled by exp(edge_scale_spread · z), z ~ N(0, 1) per edge and run:
+  /// edges whose confidences are off by different factors.
+  double edge_scale_spread = 0.0;
+  /// Heavy tails: the white errors are Student-t with this many degrees of freedom (> 2), scaled
+  /// to the claimed variance; 0 = Gaussian.
+  double student_t_dof = 0.0;
+  /// The random field (field_px) from random Fourier features (FourierNoiseField) instead of the
+  /// smoothed white noise: any correlation length, also beyond the image, at a cost that does not
+  /// grow with it.
+  bool field_fourier = false;
 
   /// Throws std::invalid_argument for a non-positive correlation length or negative amplitude.
   void validate() const;
 };
+/// Which error model a simulated run follows: the configured one (Fixed) or one drawn from the
+/// open family around it (Open, drawNoiseModel).
+enum class NoiseFamily { Fixed, Open };
+/// "fixed", "open"; throws std::invalid_argument otherwise.
+NoiseFamily parseNoiseFamily(const std::string& name);
+std::string toString(NoiseFamily f);
+
+/// The open family of error sources (simul-dba --noise-family open, the self-calibration study's
+/// --family): one model drawn from wide ranges around `base` (its type, persistence and claimed
+/// white noise), every component switched on independently, so that mixtures occur:
+///   white scale       amplitude × 2^U(−2, 2) (¼ to 4 times the claimed σ), always;
+///   per-edge spread   edge_scale_spread ~ U(0, 0.7), with probability ½;
+///   random field      length 2^U(0, log2(4 max(H, W))) px (1 px to 4 times the image), σ
+///                     2^U(log2 0.02, log2 0.5) px, Fourier features, with probability ½;
+///   per-edge affine   σ 2^U(log2 0.005, log2 0.15) px, with probability ½;
+///   outliers          fraction U(0, 5 %) at 5–30 times, with probability ⅓;
+///   heavy tails       Student-t with 3–30 degrees of freedom, with probability ⅓.
+/// The same seed gives the same model.
+NoiseModel drawNoiseModel(const NoiseModel& base, std::uint64_t seed, int H, int W);
+/// One line naming the model's error components ("white 1.3x, field 12 px 0.08 px, ...").
+std::string describe(const NoiseModel& m);
+
 /// "white", "correlated"; throws std::invalid_argument otherwise.
 NoiseModel::Type parseNoiseType(const std::string& name);
 std::string toString(NoiseModel::Type t);
@@ -90,6 +123,20 @@ class UnitNoiseField {
   NoiseModel model_;
   int H_, W_, radius_ = 0;
   std::vector<double> kernel_;  ///< normalized so that the field has unit variance
+};
+
+/// A stationary random field of unit variance with the Gaussian correlation
+/// ρ(Δ) = exp(−|Δ|² / (2 ℓ²)) in expectation, as a sum of F random Fourier features
+/// √(2/F) Σ_f cos(ω_f · x + b_f), ω_f ~ N(0, I/ℓ²), b_f ~ U(0, 2π), drawn anew by every sample:
+/// a generator independent of UnitNoiseField's, for any ℓ (also beyond the grid) in O(H W F).
+class FourierNoiseField {
+ public:
+  FourierNoiseField(double correlation_length_px, int H, int W, int features = 64);
+  std::vector<double> sample(std::mt19937_64& rng) const;
+
+ private:
+  double length_;
+  int H_, W_, features_;
 };
 
 }  // namespace dbacov::sim

@@ -158,6 +158,9 @@ struct ScenarioConfig {
   CovisibilityConfig edges = defaultScenarioEdges();
   WeightModel weights;
   NoiseModel noise;
+  /// Fixed: every run's errors follow `noise`. Open: every run draws its own error model from the
+  /// open family around `noise` (drawNoiseModel, pixel_models.h).
+  NoiseFamily noise_family = NoiseFamily::Fixed;
   /// Where the targets come from: the noise model (default) or rendered images through a registered
   /// optical flow estimator (image_flow.h); with an estimator, `weights` and `noise` are unused.
   ImageFlowConfig flow;
@@ -188,6 +191,7 @@ struct SimulatedSnapshot {
   Snapshot snapshot;                         ///< valid; state = solved optimum (or truth)
   std::vector<Eigen::Isometry3d> T_wc_true;  ///< per keyframe of `poses`
   DbaSolverSummary solver;                   ///< iterations = 0 when not solved
+  NoiseModel noise;  ///< the run's error model (drawn, with the open family)
 };
 
 class Scenario {
