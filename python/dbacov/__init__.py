@@ -174,6 +174,8 @@ def Covariance(snapshot, preset="droid", **options):
     depth_noise (applied or not), depth_noise_share (what it adds to the trace of the method's own covariance, a fraction),
     depth_noise_kurtosis (the residuals' excess kurtosis the term used),
     depth_noise_cross_kurtosis (the two flow axes' joint fourth cumulant it used),
+    edge_scale_spread and poor_fit (the noise-model fit check: the CLI's "fits the residuals
+    poorly" warning, whose sigmas are lower bounds),
     edges: one array per --edge-csv column, field_sigma, field_fine_sigma (px) and field_params);
     None with stated_model=True."""
     if snapshot is not None and not isinstance(snapshot, _Snapshot):

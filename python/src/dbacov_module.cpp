@@ -535,6 +535,8 @@ PYBIND11_MODULE(_dbacov, m) {
             d["depth_noise_kurtosis"] = c.cov->summary().self_calibration.depth_noise_kurtosis;
             d["depth_noise_cross_kurtosis"] =
                 c.cov->summary().self_calibration.depth_noise_cross_kurtosis;
+            d["edge_scale_spread"] = c.cov->summary().self_calibration.edge_scale_spread;
+            d["poor_fit"] = c.cov->summary().self_calibration.poor_fit;
             return std::move(d);
           })
       .def_property_readonly("reweighting",

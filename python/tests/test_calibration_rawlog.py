@@ -176,6 +176,12 @@ def test_depth_noise_term_keyword_and_flag(shared_path, tmp_path):
     # DROID's residuals are heavy-tailed, and jointly so across the flow's two axes.
     assert on.self_calibration["depth_noise_cross_kurtosis"] > 0
     assert ", joint across the flow axes " in r.stderr
+    # The fit check: DROID's edges' scales spread and its residuals are heavy-tailed; the CLI warns
+    # with the same numbers.
+    fit = on.self_calibration
+    assert fit["poor_fit"] and fit["edge_scale_spread"] > 0.3
+    assert f"edge white-scale spread {fit['edge_scale_spread']:.6g}, limit 0.3" in r.stderr
+    assert "noise-model fit: poor on 1 of 1 snapshots" in r.stderr
     r = run_cli("-i", shared_path, "--csv", str(tmp_path / "s.csv"),
                 "--self-calibrate-depth-noise", "off")
     assert r.returncode == 0 and "second-order" not in r.stderr, r.stderr

@@ -61,6 +61,8 @@ class SelfCalibrationRun {
   int reweighted_ = 0;
   std::vector<double> solves_, sensor_factors_, stereo_factors_;
   int snapshots_ = 0, unreliable_ = 0, converged_ = 0;
+  int poor_fits_ = 0;                  ///< snapshots whose noise-model fit check failed
+  std::vector<double> scale_spreads_;  ///< the edges' white-scale spread, per snapshot
   double seconds_ = 0;
 };
 

@@ -194,6 +194,7 @@ DbaCovariance selfCalibratedCovariance(const Snapshot& s, const DbaOptions& o,
     Vd = 0.5 * (Vd + Vd.transpose()).eval();
     given.reduced_covariance = std::make_shared<const Eigen::MatrixXd>(std::move(Vd));
   }
+  given.calibration.checkFit();
   return given.build(s, o, solver);
 }
 

@@ -1,5 +1,9 @@
 #include "dbacov/core/summary.h"
 
+#include <vector>
+
+#include <cmath>
+
 #include <algorithm>
 #include <cstdio>
 #include <sstream>
@@ -66,7 +70,29 @@ std::string CovarianceSummary::full() const {
        << self_calibration.depth_noise_kurtosis << ", joint across the flow axes "
        << self_calibration.depth_noise_cross_kurtosis << ", largest depth share of a direction "
        << self_calibration.depth_noise_max_rho << ")\n";
+  if (!self_calibration.method.empty())
+    os << "noise-model fit          "
+       << (self_calibration.poor_fit ? "poor (sigmas are a lower bound)" : "no sign of misfit")
+       << ": edge white-scale spread " << self_calibration.edge_scale_spread << " (log sd; limit "
+       << kPoorFitScaleSpread << "), residual excess kurtosis "
+       << self_calibration.depth_noise_kurtosis << " (limit " << kPoorFitKurtosis << ")\n";
   return os.str();
+}
+
+void SelfCalibrationSummary::checkFit() {
+  std::vector<double> logs;
+  for (double f : edge_factor)
+    if (f > 0 && std::isfinite(f)) logs.push_back(std::log(f));
+  edge_scale_spread = 0;
+  if (logs.size() >= 4) {
+    const auto at = [&logs](double q) {
+      const std::size_t k = static_cast<std::size_t>(q * static_cast<double>(logs.size() - 1));
+      std::nth_element(logs.begin(), logs.begin() + static_cast<std::ptrdiff_t>(k), logs.end());
+      return logs[k];
+    };
+    edge_scale_spread = (at(0.75) - at(0.25)) / 1.349;
+  }
+  poor_fit = edge_scale_spread > kPoorFitScaleSpread || depth_noise_kurtosis > kPoorFitKurtosis;
 }
 
 }  // namespace dbacov

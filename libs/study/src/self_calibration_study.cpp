@@ -21,6 +21,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -117,6 +118,16 @@ std::vector<Source> allSources() {
     v.push_back(s);
   }
   {
+    Source s{"edge-spread", "white as claimed, each edge's sigma x exp(0.4 z)", issueScene()};
+    s.config.noise.edge_scale_spread = 0.4;
+    v.push_back(s);
+  }
+  {
+    Source s{"student-t", "white as claimed, Student-t with 4 degrees of freedom", issueScene()};
+    s.config.noise.student_t_dof = 4;
+    v.push_back(s);
+  }
+  {
     Source s{"lowsnr", "default scene at weight scale 4 (white)", sim::ScenarioConfig()};
     v.push_back(s);
   }
@@ -164,6 +175,9 @@ struct Row {
   sim::EvaluationSamples samples;
   double seconds = 0;
   int snapshots = 0;
+  /// What each snapshot's self-calibration reported (methods that calibrate).
+  std::vector<SelfCalibrationSummary> calibrations;
+  int failed = 0;  ///< snapshots whose covariance failed (a NumericalError: not positive definite)
 };
 
 }  // namespace
@@ -241,7 +255,8 @@ struct StudyPlan {
 };
 
 /// The held-out rows of one source, one per method (gt's NEES already scaled by its k).
-std::map<std::string, Row> evaluateSource(const Source& src, const StudyPlan& plan, double* k) {
+std::map<std::string, Row> evaluateSource(const Source& src, const StudyPlan& plan, double* k,
+                                          int* simulation_failures) {
   const sim::Scenario sc(src.config);
   DbaOptions o = src.config.engineOptions();
   o.weight_scale *= src.claimed_scale_factor;
@@ -250,7 +265,15 @@ std::map<std::string, Row> evaluateSource(const Source& src, const StudyPlan& pl
   sim::EvaluationSamples calib;
   const auto run_all = [&](int run, bool evaluation) {
     for (int s = 0; s < sc.numSnapshots(); ++s) {
-      sim::SimulatedSnapshot snap = sc.simulate(s, static_cast<std::uint64_t>(run));
+      sim::SimulatedSnapshot snap;
+      try {
+        snap = sc.simulate(s, static_cast<std::uint64_t>(run));
+      } catch (const NumericalError& e) {  // the scenario's own solve broke down: no estimate
+        std::fprintf(stderr, "self_calibration_study: %s: run %d skipped: %s\n", src.name.c_str(),
+                     run, e.what());
+        ++*simulation_failures;
+        continue;
+      }
       if (src.claimed_stereo_factor != 1.0)
         for (int e = 0; e < snap.snapshot.numEdges(); ++e)
           if (snap.snapshot.ii[e] == snap.snapshot.jj[e])
@@ -283,6 +306,7 @@ std::map<std::string, Row> evaluateSource(const Source& src, const StudyPlan& pl
           throw std::runtime_error(snap.snapshot.name() + ": " + m + ": " + e.what());
         }
         // The bootstrap re-solves (dbacov_study); nuisance is the product's pipeline.
+        Row& r = rows[m];
         const sim::CovarianceFunction covariance =
             spec.covariance_only ? sim::pipelineCovariance(nullptr)
             : spec.bootstrap
@@ -292,10 +316,20 @@ std::map<std::string, Row> evaluateSource(const Source& src, const StudyPlan& pl
                         bootstrapSelfCalibration(one, opt, spec.options, spec.bootstrap_options)
                             .calibration);
                   })
-                : sim::pipelineCovariance(&spec.options);
-        const sim::EvaluationSamples x =
-            sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive, covariance);
-        Row& r = rows[m];
+                : sim::CovarianceFunction([&spec, &r](const Snapshot& one, const DbaOptions& opt) {
+                    DbaCovariance cov = sim::pipelineCovariance(&spec.options)(one, opt);
+                    r.calibrations.push_back(cov.summary().self_calibration);
+                    return cov;
+                  });
+        sim::EvaluationSamples x;
+        try {
+          x = sim::evaluateSnapshot(*at, oc, label, sim::PairSelection::Consecutive, covariance);
+        } catch (const NumericalError& e) {  // counted: a method that cannot answer fails here
+          std::fprintf(stderr, "self_calibration_study: %s: %s: %s\n", src.name.c_str(), m.c_str(),
+                       e.what());
+          ++r.failed;
+          continue;
+        }
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         ++r.snapshots;
         r.samples.append(x);
@@ -321,6 +355,7 @@ void printRow(const std::string& source, const std::string& method, const Row& r
       source.c_str(), method.c_str(), a.anees, a.inside ? "" : " ✗", a.region.lower, a.region.upper,
       rel.anees, rel.inside ? "" : " ✗", rel.region.lower, rel.region.upper,
       100 * a.coverage_all[0], 100 * a.coverage_all[1], 100 * a.tail_95, r.seconds / r.snapshots);
+  if (r.failed) std::printf("  failed snapshots: %d\n", r.failed);
   std::fflush(stdout);
 }
 
@@ -356,14 +391,36 @@ void printFamilySummary(const std::string& method, const std::vector<Consistency
   std::fflush(stdout);
 }
 
+/// The medians over a row's snapshots of what its self-calibration reported, one line: the
+/// depths' term's share of the trace, its largest direction share ρ, the residuals' excess
+/// kurtosis, the spread of the edges' white scales (SelfCalibrationSummary::edge_scale_spread)
+/// and the fraction of snapshots whose fit check failed (poor_fit).
+void printCalibrationMedians(const Row& r) {
+  if (r.calibrations.empty()) return;
+  std::vector<double> share, rho, kurtosis, spread;
+  double poor = 0;
+  for (const SelfCalibrationSummary& c : r.calibrations) {
+    share.push_back(c.depth_noise_share);
+    rho.push_back(c.depth_noise_max_rho);
+    kurtosis.push_back(c.depth_noise_kurtosis);
+    spread.push_back(c.edge_scale_spread);
+    poor += c.poor_fit ? 1.0 / static_cast<double>(r.calibrations.size()) : 0.0;
+  }
+  std::printf(
+      "  calibration medians: depth term %.4f, max rho %.3f, kurtosis %.3f, scale spread %.3f, "
+      "poor fit %.2f\n",
+      quantile(share, 0.5), quantile(rho, 0.5), quantile(kurtosis, 0.5), quantile(spread, 0.5),
+      poor);
+}
+
 /// `count` error models drawn from the open family (pixel_models.h), model m on the study's
 /// scene in mode m mod 3 (monocular, stereo, RGB-D): one row per model and method, then the
 /// family's summary per method.
-int familyStudy(int count, std::uint64_t seed, const StudyPlan& plan) {
+int familyStudy(int first, int count, std::uint64_t seed, const StudyPlan& plan) {
   const sim::SensorMode modes[3] = {sim::SensorMode::Mono, sim::SensorMode::Stereo,
                                     sim::SensorMode::Rgbd};
   std::map<std::string, std::vector<ConsistencyStats>> stats;
-  for (int m = 0; m < count; ++m) {
+  for (int m = first; m < first + count; ++m) {
     const sim::SensorMode mode = modes[m % 3];
     Source src{"", "", mode == sim::SensorMode::Mono ? issueScene() : droidScene(mode)};
     src.config.noise = sim::drawNoiseModel(src.config.noise, sim::mixSeed(seed, m, 0),
@@ -373,10 +430,17 @@ int familyStudy(int count, std::uint64_t seed, const StudyPlan& plan) {
                                                              : "rgbd") +
                " #" + std::to_string(m) + ": " + sim::describe(src.config.noise);
     double k = 1;
-    const std::map<std::string, Row> rows = evaluateSource(src, plan, &k);
+    int simulation_failures = 0;
+    const std::map<std::string, Row> rows = evaluateSource(src, plan, &k, &simulation_failures);
+    if (simulation_failures) std::printf("  simulation failures: %d\n", simulation_failures);
     for (const std::string& method : plan.methods) {
+      if (!rows.count(method) || rows.at(method).samples.absolute.empty()) {
+        std::printf("| %s | %s | every snapshot failed |\n", src.name.c_str(), method.c_str());
+        continue;
+      }
       printRow(src.name, method, rows.at(method));
       stats[method].push_back(summarize(rows.at(method).samples.absolute));
+      printCalibrationMedians(rows.at(method));
     }
   }
   std::printf(
@@ -389,7 +453,7 @@ int familyStudy(int count, std::uint64_t seed, const StudyPlan& plan) {
 
 int study(int argc, char** argv) {
   StudyPlan plan;
-  int family = 0;
+  int family = 0, family_first = 0;
   std::uint64_t family_seed = 48;
   std::string sources_arg = "white,white2x,wrongscale,field,affine,affine+outliers",
               methods_arg = "raw,gt,nuisance";
@@ -424,6 +488,10 @@ int study(int argc, char** argv) {
                  "turn, then the family's summary per method")
       ->check(CLI::Range(0, 100000));
   cli.add_option("--family-seed", family_seed, "seed of the family's draws")->capture_default_str();
+  cli.add_option("--family-first", family_first,
+                 "index of the first model drawn (to split a study)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -451,13 +519,14 @@ int study(int argc, char** argv) {
   std::printf(
       "| source | method | ANEES abs | region | ANEES rel | region | 1σ | 2σ | NEES > χ²(0.95) "
       "| s/snapshot |\n|---|---|---|---|---|---|---|---|---|---|\n");
-  if (family > 0) return familyStudy(family, family_seed, plan);
+  if (family > 0) return familyStudy(family_first, family, family_seed, plan);
   for (const Source& src : allSources()) {
     bool wanted = false;
     for (const std::string& w : want_sources) wanted |= w == src.name;
     if (!wanted) continue;
     double k = 1;
-    const std::map<std::string, Row> rows = evaluateSource(src, plan, &k);
+    int simulation_failures = 0;
+    const std::map<std::string, Row> rows = evaluateSource(src, plan, &k, &simulation_failures);
     for (const std::string& m : plan.methods)
       printRow(src.name, m == "gt" ? "gt (k=" + std::to_string(k).substr(0, 6) + ")" : m,
                rows.at(m));
