@@ -91,8 +91,6 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   snapshot.validate();  // the API boundary: InputError for an invalid snapshot (covariance.h)
   Impl& m = *impl_;
   const auto t0 = Clock::now();
-  const std::shared_ptr<const Eigen::MatrixXd> reduced_covariance =
-      given ? given->reduced_covariance : nullptr;
   const std::shared_ptr<const DbaNormalEquations> linearization =
       given && !so.depth_variances ? given->linearization : nullptr;
   if (linearization &&
@@ -101,6 +99,35 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
     throw std::invalid_argument("the given linearization is not that of this snapshot (" +
                                 snapshot.source + "): its keyframes differ");
   m.ne = linearization ? *linearization : linearizeDba(snapshot, options, so.depth_variances);
+  m.H = snapshot.H;
+  m.W = snapshot.W;
+  finish(gaugeGraph(snapshot), snapshot.numKeyframes(), snapshot.numEdges(), options, so, given,
+         seconds(t0, Clock::now()));
+}
+
+DbaCovariance::DbaCovariance(const PatchGraph& graph, const DbaOptions& options,
+                             const CovarianceOptions& so)
+    : impl_(std::make_unique<Impl>()) {
+  options.validate();
+  graph.validate();  // the API boundary, as for snapshots
+  const auto t0 = std::chrono::steady_clock::now();
+  impl_->ne = linearizePatchGraph(graph, options, so.depth_variances);
+  impl_->H = 1;  // inverseDepthSigma answers one value per patch of the frame
+  impl_->W = graph.M;
+  finish(gaugeGraph(graph), graph.numFrames(), graph.numEdges(), options, so, nullptr,
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+}
+
+void DbaCovariance::finish(const GaugeGraph& graph, int num_frames, int num_edges,
+                           const DbaOptions& options, const CovarianceOptions& so,
+                           const detail::GivenModel* given, double seconds_linearize) {
+  using Clock = std::chrono::steady_clock;
+  auto seconds = [](Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+  };
+  Impl& m = *impl_;
+  const std::shared_ptr<const Eigen::MatrixXd> reduced_covariance =
+      given ? given->reduced_covariance : nullptr;
   const auto t1 = Clock::now();
   // Values that pass validation can still overflow double precision in the factor (e.g. a
   // principal point of 1e154): refuse before the solver turns them into NaN covariances.
@@ -118,17 +145,15 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
             a == b ? std::vector<int>{ka} : std::vector<int>{ka, kb});
       }
   m.depth_variances = so.depth_variances;
-  m.H = snapshot.H;
-  m.W = snapshot.W;
-  m.gauge = makeGauge(options.gauge, snapshot, m.ne.keyframes);
+  m.gauge = makeGauge(options.gauge, graph, m.ne.keyframes);
   checkGaugeReachesAll(m.ne.S, m.gauge, m.ne.keyframes);
   // The reduced system lives only until it is factorized (it is as large as S).
   Eigen::SparseMatrix<double> S_reduced = m.gauge.dim() > 0 && !reduced_covariance
                                               ? reduceSystem(m.ne.S, m.gauge)
                                               : Eigen::SparseMatrix<double>();
   const auto t2 = Clock::now();
-  m.T_wc.assign(snapshot.numKeyframes(), Eigen::Isometry3d::Identity());
-  for (int k : m.ne.keyframes) m.T_wc[k] = snapshot.T_wc(k);
+  m.T_wc.assign(num_frames, Eigen::Isometry3d::Identity());
+  for (int k : m.ne.keyframes) m.T_wc[k] = graph.T_wc(k);
 
   if (reduced_covariance) {
     // A given covariance (the self-calibration's) instead of S⁻¹.
@@ -163,12 +188,12 @@ DbaCovariance::DbaCovariance(const Snapshot& snapshot, const DbaOptions& options
   sum.solver = m.solver->name();
   sum.ordering = toString(so.ordering);
   sum.keyframes = static_cast<int>(m.ne.keyframes.size());
-  sum.edges = snapshot.numEdges();
+  sum.edges = num_edges;
   sum.free_dof = m.gauge.dim();
   sum.factor_entries = m.gauge.dim() > 0 ? m.solver->factorEntries() : 0;
   sum.linearization = m.ne.stats;
   if (given) sum.self_calibration = given->calibration;
-  sum.seconds_linearize = seconds(t0, t1);
+  sum.seconds_linearize = seconds_linearize;
   sum.seconds_gauge = seconds(t1, t2);
   sum.seconds_factorize = seconds(t2, t3);
   // A finite, positive definite S so ill-conditioned that its inverse overflows.

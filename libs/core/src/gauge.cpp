@@ -10,8 +10,8 @@ namespace dbacov {
 namespace {
 
 /// The two lowest-indexed keyframes that appear in `ii` (conventions §4), as slots.
-std::vector<int> gaugeSlots(const Snapshot& s, const std::vector<int>& keyframes) {
-  const std::set<std::int64_t> sources(s.ii.begin(), s.ii.end());
+std::vector<int> gaugeSlots(const GaugeGraph& s, const std::vector<int>& keyframes) {
+  const std::set<std::int64_t> sources(s.sources.begin(), s.sources.end());
   std::vector<int> slots;
   for (auto it = sources.begin(); it != sources.end() && slots.size() < 2; ++it)
     slots.push_back(static_cast<int>(
@@ -26,7 +26,23 @@ std::vector<int> gaugeSlots(const Snapshot& s, const std::vector<int>& keyframes
 
 }  // namespace
 
+GaugeGraph gaugeGraph(const Snapshot& s) {
+  return {s.source, s.t0, s.ii, [&s](int k) { return s.T_wc(k); }};
+}
+
+GaugeGraph gaugeGraph(const PatchGraph& g) {
+  GaugeGraph gg{g.source, g.t0, {}, [&g](int k) { return g.T_wc(k); }};
+  for (int e = 0; e < g.numEdges(); ++e)
+    if (g.ii[e] != g.jj[e]) gg.sources.push_back(g.ii[e]);  // self-edges carry nothing
+  return gg;
+}
+
 GaugeParameterization makeGauge(const GaugeOptions& options, const Snapshot& s,
+                                const std::vector<int>& keyframes) {
+  return makeGauge(options, gaugeGraph(s), keyframes);
+}
+
+GaugeParameterization makeGauge(const GaugeOptions& options, const GaugeGraph& s,
                                 const std::vector<int>& keyframes) {
   const int n = static_cast<int>(keyframes.size());
   GaugeParameterization g;

@@ -1,6 +1,7 @@
 #include "dbacov/core/linearization.h"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "dba_kernel.h"
 #include "dbacov/core/dba_factor.h"
@@ -153,6 +154,12 @@ bool keepPixelFactor(const DbaOptions& o, double d, double Y2) {
 }
 
 DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool keep_depth_terms) {
+  if (o.max_residual || o.image_margin)
+    throw std::invalid_argument(
+        "the maximum residual and the image margin (preset dpvo) apply to patch graphs only, not "
+        "to "
+        "a dense DROID snapshot (" +
+        s.source + ")");
   DbaNormalEquations ne;
   ne.keyframes = s.graphKeyframes();
   const int n = static_cast<int>(ne.keyframes.size());

@@ -21,8 +21,26 @@ DbaOptions DbaOptions::paper() {
   return o;
 }
 
+DbaOptions DbaOptions::dpvo() {
+  DbaOptions o;
+  o.weight_scale = 1.0;  // DPVO's BA uses the confidences as they are
+  o.min_depth_ratio = 0.2;
+  o.max_residual = 128.0;
+  o.image_margin = 64.0;
+  o.gauge.type = GaugeOptions::Type::Droid;
+  return o;
+}
+
 DbaOptions DbaOptions::preset(Preset preset) {
-  return preset == Preset::Paper ? paper() : droid();
+  switch (preset) {
+    case Preset::Paper:
+      return paper();
+    case Preset::Dpvo:
+      return dpvo();
+    case Preset::Droid:
+      break;
+  }
+  return droid();
 }
 
 DbaOptions DbaOptions::preset(const std::string& name) {
@@ -62,6 +80,10 @@ void DbaOptions::validate() const {
   if (near && !positive(*near)) throw std::invalid_argument("near must be finite and > 0");
   if (far && !positive(*far)) throw std::invalid_argument("far must be finite and > 0");
   if (near && far && !(*near < *far)) throw std::invalid_argument("near must be < far");
+  if (max_residual && !positive(*max_residual))
+    throw std::invalid_argument("maximum residual must be finite and > 0");
+  if (image_margin && !(std::isfinite(*image_margin) && *image_margin >= 0))
+    throw std::invalid_argument("image margin must be finite and >= 0");
   if (!(std::isfinite(sensor_depth_weight) && sensor_depth_weight >= 0))
     throw std::invalid_argument("sensor depth weight must be finite and >= 0");
   if (!(std::isfinite(gauge.sigma_rot) && gauge.sigma_rot >= 0))

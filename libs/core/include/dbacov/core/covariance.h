@@ -21,11 +21,14 @@
 #include <Eigen/Geometry>
 
 #include "dbacov/core/options.h"
+#include "dbacov/core/patch_graph.h"
 #include "dbacov/core/se3.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/core/summary.h"
 
 namespace dbacov {
+
+struct GaugeGraph;  // what the gauge needs of a graph (internal)
 
 namespace detail {
 struct GivenModel;  // a covariance computed outside the engine (self-calibration; internal)
@@ -36,6 +39,11 @@ class DbaCovariance {
   /// Validates the options (std::invalid_argument), linearizes,
   /// fixes the gauge and factorizes; throws NumericalError as described above.
   DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
+                const CovarianceOptions& covariance = {});
+  /// The same for DPVO's patch graph (linearizePatchGraph; use DbaOptions::dpvo() for DPVO's own
+  /// model): keyframes are the graph frames, and inverseDepthSigma(frame) answers M values, one
+  /// per patch of the frame (NaN where a patch carries no information).
+  DbaCovariance(const PatchGraph& graph, const DbaOptions& options,
                 const CovarianceOptions& covariance = {});
   ~DbaCovariance();
   DbaCovariance(DbaCovariance&&) noexcept;
@@ -76,6 +84,10 @@ class DbaCovariance {
   friend struct detail::GivenModel;
   DbaCovariance(const Snapshot& snapshot, const DbaOptions& options,
                 const CovarianceOptions& covariance, const detail::GivenModel* given);
+  /// Everything after the linearization (impl_->ne): gauge, factorization, summary, checks.
+  void finish(const GaugeGraph& graph, int num_frames, int num_edges, const DbaOptions& options,
+              const CovarianceOptions& covariance, const detail::GivenModel* given,
+              double seconds_linearize);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -35,6 +35,7 @@ struct GaugeOptions {
 enum class Preset {
   Droid,  ///< DROID-SLAM's own DBA
   Paper,  ///< the paper's code path, corrected
+  Dpvo,   ///< DPVO's patch-graph BA (patch graphs only)
 };
 
 struct DbaOptions {
@@ -46,6 +47,11 @@ struct DbaOptions {
   std::optional<double> near;
   /// Keep a pixel factor only if d > 1/far.
   std::optional<double> far;
+  /// Patch graphs only (DPVO's BA): drop an edge whose residual norm |r| is >= max_residual px.
+  std::optional<double> max_residual;
+  /// Patch graphs only (DPVO's BA): drop an edge whose projection π(Y) lies outside
+  /// (−m, 2·cx + m) × (−m, 2·cy + m) for m = image_margin px.
+  std::optional<double> image_margin;
   /// Depth variables with Hdd <= depth_info_eps are unobservable; they are not eliminated and
   /// their factors contribute only through the pose block (b_k is then negligible, see
   /// linearization.cpp).
@@ -65,8 +71,11 @@ struct DbaOptions {
   /// The paper's code path, corrected: weight_scale 0.1, near 0.25 / far 2 depth filter, two-pose
   /// gauge with sigmas 1° (rotation) and 0.05 (translation).
   static DbaOptions paper();
+  /// DPVO's patch-graph BA: weight_scale 1, Y2 >= 0.2, max_residual 128 px, image_margin 64 px,
+  /// gauge droid (the frames below t0 are held).
+  static DbaOptions dpvo();
   static DbaOptions preset(Preset preset);
-  /// "droid" or "paper"; throws std::invalid_argument for anything else.
+  /// "droid", "paper" or "dpvo"; throws std::invalid_argument for anything else.
   static DbaOptions preset(const std::string& name);
 
   /// Throws std::invalid_argument when a value is out of its domain (non-positive weight scale,
@@ -127,8 +136,8 @@ struct EnumNames<GaugeOptions::Type> {
 template <>
 struct EnumNames<Preset> {
   static constexpr const char* what = "preset";
-  static constexpr std::array<std::pair<Preset, const char*>, 2> entries{
-      {{Preset::Droid, "droid"}, {Preset::Paper, "paper"}}};
+  static constexpr std::array<std::pair<Preset, const char*>, 3> entries{
+      {{Preset::Droid, "droid"}, {Preset::Paper, "paper"}, {Preset::Dpvo, "dpvo"}}};
 };
 template <>
 struct EnumNames<SolverKind> {

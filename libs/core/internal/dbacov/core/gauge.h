@@ -18,6 +18,10 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -25,6 +29,7 @@
 
 #include "dbacov/core/block_matrix.h"
 #include "dbacov/core/options.h"
+#include "dbacov/core/patch_graph.h"
 #include "dbacov/core/snapshot.h"
 
 namespace dbacov {
@@ -46,6 +51,20 @@ struct GaugeParameterization {
   }
 };
 
+/// What a gauge needs to know of a graph (a dense snapshot or a patch graph).
+struct GaugeGraph {
+  std::string source;                 ///< names the input in messages
+  std::optional<std::int64_t> t0;     ///< the frames below it were held (gauge droid)
+  std::vector<std::int64_t> sources;  ///< the source frame of every edge that carries information
+  std::function<Eigen::Isometry3d(int)> T_wc;  ///< camera-to-world pose of a frame
+};
+GaugeGraph gaugeGraph(const Snapshot& s);
+GaugeGraph gaugeGraph(const PatchGraph& g);
+
+/// Builds the gauge for the graph keyframes `keyframes` (slot → keyframe) of `graph`.
+GaugeParameterization makeGauge(const GaugeOptions& options, const GaugeGraph& graph,
+                                const std::vector<int>& keyframes);
+/// makeGauge(options, gaugeGraph(s), keyframes).
 /// Builds the gauge for the graph keyframes `keyframes` (slot → keyframe) of snapshot `s`.
 /// Throws NumericalError when `ii` names fewer than two keyframes, or (minimal) when the first two
 /// keyframe centres coincide, so that scale cannot be fixed by their distance.

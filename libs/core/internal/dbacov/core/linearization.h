@@ -20,6 +20,7 @@
 
 #include "dbacov/core/block_matrix.h"
 #include "dbacov/core/options.h"
+#include "dbacov/core/patch_graph.h"
 #include "dbacov/core/snapshot.h"
 #include "dbacov/core/summary.h"
 
@@ -29,7 +30,7 @@ namespace dbacov {
 struct DepthTerms {
   int source_slot = -1;
   std::vector<int> touched;  ///< slots: touched[0] = source, then the distinct edge targets
-  std::vector<int> pixel;    ///< pixel index y·W + x of each kept depth variable
+  std::vector<int> pixel;    ///< pixel index y·W + x (patch graphs: patch m) of each kept depth
   std::vector<double> h;     ///< Hdd entry of each kept depth (> depth_info_eps)
   std::vector<double> g;     ///< g_d entry of each kept depth
   Eigen::MatrixXd B;         ///< 6·|touched| × pixel.size(): column k is b_k on the touched slots
@@ -53,7 +54,18 @@ bool keepPixelFactor(const DbaOptions& options, double d, double Y2);
 
 /// Linearizes every pixel factor at the snapshot's state and eliminates the depths. The snapshot
 /// must be valid (Snapshot::validate). Pixels with d <= 0 or both weights zero carry nothing.
+/// std::invalid_argument for options that apply to patch graphs only (max_residual,
+/// image_margin).
 DbaNormalEquations linearizeDba(const Snapshot& snapshot, const DbaOptions& options,
                                 bool keep_depth_terms = false);
+
+/// The same for DPVO's patch graph (patch_graph.h): slots are the graph frames, one factor per
+/// edge at its patch centre, one depth variable per patch (shared by the patch's edges) eliminated
+/// as above. Self-edges (ii == jj) are skipped; an edge is dropped by keepPixelFactor and, when
+/// set, by options.max_residual (|r| >= max) and options.image_margin (projection outside the
+/// widened image), as DPVO's BA does. DepthTerms::pixel holds the patch index m within its frame.
+/// The graph must be valid (PatchGraph::validate).
+DbaNormalEquations linearizePatchGraph(const PatchGraph& graph, const DbaOptions& options,
+                                       bool keep_depth_terms = false);
 
 }  // namespace dbacov
