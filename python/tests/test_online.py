@@ -265,7 +265,7 @@ def test_bad_options_are_refused_before_droid_starts(tmp_path):
     cases = [
         (["--gauge", "foo"], "--gauge foo: unknown gauge 'foo', expected two-pose, minimal or "
                              "droid"),
-        (["--preset", "x"], "--preset x: unknown preset 'x', expected droid or paper"),
+        (["--preset", "x"], "--preset x: unknown preset 'x', expected droid, paper or dpvo"),
         (["--weight-scale", "0"], "--weight-scale 0.0: weight scale must be finite and > 0"),
         (["--weight-scale", "-1"], "--weight-scale -1.0: weight scale must be finite and > 0"),
         (["--fps", "0"], "--fps 0: expected a finite positive frame rate (frames per second)"),

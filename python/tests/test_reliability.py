@@ -294,7 +294,10 @@ def test_check_options_gives_covariances_messages_without_a_snapshot():
     assert dbacov.check_options(preset="paper", gauge="minimal", weight_scale=2) is None
     for kw, message in (({"gauge": "foo"}, "unknown gauge 'foo', expected two-pose, minimal or "
                                            "droid"),
-                        ({"preset": "x"}, "unknown preset 'x', expected droid or paper"),
+                        ({"preset": "x"}, "unknown preset 'x', expected droid, paper or dpvo"),
+                        ({"preset": "dpvo"}, "preset 'dpvo' is that of DPVO's patch graphs, which "
+                                             "the programs and the Python module do not read "
+                                             "yet; a DROID snapshot takes 'droid' or 'paper'"),
                         ({"weight_scale": 0}, "weight scale must be finite and > 0")):
         with pytest.raises(ValueError) as e:
             dbacov.check_options(**kw)

@@ -408,6 +408,16 @@ TEST(CovarianceApp, KernelVariantFromTheEnvironment) {
   EXPECT_TRUE(std::filesystem::exists(dir.file("base.csv")));
 }
 
+TEST(CovarianceApp, DpvoPresetIsRefusedForDroidSnapshotsBeforeAnyWork) {
+  testing::TempDir dir;
+  const AppResult r =
+      testing::runCommand(std::string(DBACOV_BINARY_DIR) + "/bin/dba-covariance -i " +
+                          dir.file("none.npz") + " --csv " + dir.file("k.csv") + " --preset dpvo");
+  EXPECT_EQ(r.code, 2) << r.out;  // bad usage, named before the (missing) input is looked at
+  EXPECT_TRUE(contains(r.out, "preset 'dpvo' is that of DPVO's patch graphs")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("k.csv")));
+}
+
 TEST(CovarianceApp, HelpDocumentsEveryOptionAndTheConventions) {
   // The real executable.
   const AppResult r =

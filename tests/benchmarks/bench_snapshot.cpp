@@ -6,6 +6,9 @@
 //   Linearize     pixel factors + depth Schur complement, args (problem, threads): problem 0 =
 //                 the shared snapshot, 1 = a simulated DROID-sized window; vs the FLOP floor
 //   Covariances   linearize + gauge + factorize + every keyframe marginal (what --csv needs)
+//   PatchGraph    the same for a DPVO-sized patch graph (10 frames, 96 patches per frame, every
+//                 patch seen by every frame: 9 600 edges; the preset dpvo, droid gauge at t0 = 2):
+//                 what running after every DPVO update costs
 //
 //   build/bin/bench_snapshot --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <filesystem>
@@ -17,6 +20,7 @@
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/threads.h"
 #include "flop_count.h"
+#include "patch_graph_fixture.h"
 
 namespace dbacov::bench {
 namespace {
@@ -72,6 +76,20 @@ void BM_Covariances(benchmark::State& state) {
   state.SetLabel(so.kind == SolverKind::Sparse ? "sparse" : "dense");
 }
 
+void BM_PatchGraph(benchmark::State& state) {
+  const ThreadLimit one(1);
+  PatchGraph g = testing::makePatchGraph(13, 10, 96, 9);
+  g.t0 = 2;
+  const DbaOptions o = DbaOptions::dpvo();
+  for (auto _ : state) {
+    const DbaCovariance cov(g, o);
+    double sum = 0;
+    for (int k : cov.keyframes()) sum += cov.marginal(k).trace();
+    benchmark::DoNotOptimize(sum);
+  }
+  state.SetLabel(std::to_string(g.numEdges()) + " edges");
+}
+
 BENCHMARK(BM_Load)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_LoadStored)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Linearize)
@@ -82,6 +100,7 @@ BENCHMARK(BM_Linearize)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_Covariances)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PatchGraph)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace dbacov::bench

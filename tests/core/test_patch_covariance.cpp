@@ -1,7 +1,5 @@
 // DbaCovariance of a patch graph: equal to that of the equivalent dense snapshot under every gauge,
 // and to a naive dense inverse of the full (poses + depths) information with the droid gauge.
-#include <chrono>
-#include <cstdio>
 
 #include <gtest/gtest.h>
 
@@ -102,21 +100,13 @@ TEST(PatchCovariance, DroidGaugeEqualsTheNaiveInverseOfTheFullInformation) {
 namespace dbacov {
 namespace {
 
-// Not a benchmark: prints the time of a DPVO-sized window (10 frames, 96 patches per frame, every
-// patch seen by every frame: 9600 edges of which 8640 between two frames) for the record.
-TEST(PatchCovariance, ADpvoSizedWindowTakesMilliseconds) {
+// A DPVO-sized window (10 frames, 96 patches per frame, every patch seen by every frame: 9600
+// edges) goes through; its time is bench_snapshot's PatchGraph (docs/development/performance.md).
+TEST(PatchCovariance, ADpvoSizedWindowGivesFiniteMarginals) {
   PatchGraph g = testing::makePatchGraph(13, 10, 96, 9);
   g.t0 = 2;
-  const auto start = std::chrono::steady_clock::now();
   const DbaCovariance cov(g, DbaOptions::dpvo());
   for (int k : cov.keyframes()) EXPECT_TRUE(cov.marginal(k).allFinite());
-  const double total =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const CovarianceSummary& s = cov.summary();
-  std::printf(
-      "patch graph N=10 M=96 E=%d: linearize %.4f s, gauge %.4f s, factorize %.4f s, "
-      "total with marginals %.4f s\n",
-      g.numEdges(), s.seconds_linearize, s.seconds_gauge, s.seconds_factorize, total);
   EXPECT_GT(cov.stats().factors_used, 0u);
 }
 

@@ -48,6 +48,12 @@ DbaOptions DbaOptions::preset(const std::string& name) {
 }
 
 DbaOptions DbaOptionOverrides::resolve() const {
+  // The apps and the Python module read DROID's dense snapshots; DPVO's patch graphs are read by
+  // the library (DbaCovariance(PatchGraph)), whose preset this is.
+  if (preset == Preset::Dpvo)
+    throw std::invalid_argument(
+        "preset 'dpvo' is that of DPVO's patch graphs, which the programs and the Python module "
+        "do not read yet; a DROID snapshot takes 'droid' or 'paper'");
   DbaOptions o = DbaOptions::preset(preset);
   if (weight_scale) o.weight_scale = *weight_scale;
   if (gauge) o.gauge.type = *gauge;
