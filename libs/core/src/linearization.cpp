@@ -8,6 +8,7 @@
 #include "dbacov/core/parallel.h"
 #include "dbacov/core/se3.h"
 #include "depth_only_factors.h"
+#include "source_system.h"
 
 namespace dbacov {
 namespace {
@@ -22,24 +23,15 @@ struct EdgeRef {
 
 /// The linearization of one source keyframe's pixels: a dense local system over the slots it
 /// touches (itself and its edge targets), merged into the block matrices afterwards.
-struct SourceResult {
-  int source_slot = -1;
-  std::vector<int> touched;
-  Eigen::MatrixXd Hloc, Sloc;  ///< 6T×6T, symmetric
-  Eigen::VectorXd g_loc, gS_loc;
-  LinearizationStats stats;
-  DepthTerms depth;  ///< filled only with keep_depth_terms
-};
-
-SourceResult linearizeSource(const Snapshot& s, const DbaOptions& o, const PinholeIntrinsics& K,
-                             const std::vector<double>& xn, const std::vector<double>& yn,
-                             int src_slot, int src, std::vector<int> touched,
-                             const std::vector<EdgeRef>& edges, bool keep_depth_terms,
-                             const detail::DepthOnlyTerms& depth_only, kernel::Isa isa) {
-  SourceResult res;
+detail::SourceSystem linearizeSource(const Snapshot& s, const DbaOptions& o,
+                                     const PinholeIntrinsics& K, const std::vector<double>& xn,
+                                     const std::vector<double>& yn, int src_slot, int src,
+                                     std::vector<int> touched, const std::vector<EdgeRef>& edges,
+                                     bool keep_depth_terms,
+                                     const detail::DepthOnlyTerms& depth_only, kernel::Isa isa) {
+  detail::SourceSystem res;
   const bool caller_keeps = keep_depth_terms;
   keep_depth_terms |= depth_only.any;  // the correction needs the kernel's depth terms
-  res.source_slot = src_slot;
   const int T = static_cast<int>(touched.size()), E = static_cast<int>(edges.size());
   const int HW = static_cast<int>(s.pixelsPerFrame());
 
@@ -210,7 +202,7 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
     }
     if (!t.edges.empty()) tasks.push_back(std::move(t));
   }
-  std::vector<SourceResult> results(tasks.size());
+  std::vector<detail::SourceSystem> results(tasks.size());
   // The kernel's instruction set, chosen here: a wrong DBACOV_KERNEL_ISA is the caller's error.
   const kernel::Isa isa = kernel::selectedIsa();
   parallelFor(tasks.size(), [&](std::size_t i) {
@@ -220,8 +212,15 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
                                  detail::depthOnlyTerms(s, o, src, t.stereo), isa);
   });
 
-  // Merge in source order, so that the result does not depend on the number of threads.
-  for (SourceResult& r : results) {
+  detail::mergeSourceSystems(results, keep_depth_terms, ne);
+  return ne;
+}
+
+namespace detail {
+
+void mergeSourceSystems(std::vector<SourceSystem>& systems, bool keep_depth_terms,
+                        DbaNormalEquations& ne) {
+  for (SourceSystem& r : systems) {
     const int T = static_cast<int>(r.touched.size());
     for (int a = 0; a < T; ++a) {
       ne.g_p.segment<6>(6 * r.touched[a]) += r.g_loc.segment<6>(6 * a);
@@ -240,7 +239,8 @@ DbaNormalEquations linearizeDba(const Snapshot& s, const DbaOptions& o, bool kee
     ne.stats.chi2 += r.stats.chi2;
     if (keep_depth_terms) ne.depths.push_back(std::move(r.depth));
   }
-  return ne;
 }
+
+}  // namespace detail
 
 }  // namespace dbacov

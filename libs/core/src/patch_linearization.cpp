@@ -5,19 +5,10 @@
 #include "dbacov/core/dba_factor.h"
 #include "dbacov/core/linearization.h"
 #include "dbacov/core/parallel.h"
+#include "source_system.h"
 
 namespace dbacov {
 namespace {
-
-/// The local system of one source frame over the slots its patches' edges touch (touched[0] is
-/// the frame itself), merged into the block matrices afterwards.
-struct FrameResult {
-  std::vector<int> touched;
-  Eigen::MatrixXd Hloc, Sloc;
-  Eigen::VectorXd g_loc, gS_loc;
-  LinearizationStats stats;
-  DepthTerms depth;
-};
 
 /// What the graph's geometry gives every frame: the slots and the poses.
 struct Geometry {
@@ -42,10 +33,11 @@ bool keepEdge(const Geometry& geo, const PixelFactorLinearization& f, double tx,
 
 /// Linearizes the patches of frame `src` whose edges (non-self) are listed in `edges` by patch:
 /// edges[m] are the edges of patch m of the frame.
-FrameResult linearizeFrame(const Geometry& geo, int src, const std::vector<std::vector<int>>& edges,
-                           bool keep_depth_terms) {
+detail::SourceSystem linearizeFrame(const Geometry& geo, int src,
+                                    const std::vector<std::vector<int>>& edges,
+                                    bool keep_depth_terms) {
   const PatchGraph& g = geo.g;
-  FrameResult res;
+  detail::SourceSystem res;
   res.touched.push_back(geo.slot_of[src]);
   auto position = [&](int slot) {
     const auto it = std::find(res.touched.begin(), res.touched.end(), slot);
@@ -160,31 +152,12 @@ DbaNormalEquations linearizePatchGraph(const PatchGraph& g, const DbaOptions& o,
   std::vector<int> sources;
   for (int k = 0; k < g.numFrames(); ++k)
     if (!by_frame[k].empty()) sources.push_back(k);
-  std::vector<FrameResult> results(sources.size());
+  std::vector<detail::SourceSystem> results(sources.size());
   parallelFor(sources.size(), [&](std::size_t i) {
     results[i] = linearizeFrame(geo, sources[i], by_frame[sources[i]], keep_depth_terms);
   });
 
-  // Merge in frame order, so that the result does not depend on the number of threads.
-  for (FrameResult& r : results) {
-    const int T = static_cast<int>(r.touched.size());
-    for (int a = 0; a < T; ++a) {
-      ne.g_p.segment<6>(6 * r.touched[a]) += r.g_loc.segment<6>(6 * a);
-      ne.g_S.segment<6>(6 * r.touched[a]) += r.gS_loc.segment<6>(6 * a);
-      for (int c = a; c < T; ++c) {
-        const Matrix6d Hb = r.Hloc.block<6, 6>(6 * a, 6 * c);
-        if (!Hb.isZero(0)) ne.Hpp.add(r.touched[a], r.touched[c], Hb);
-        const Matrix6d Sb = r.Sloc.block<6, 6>(6 * a, 6 * c);
-        if (a == c || !Sb.isZero(0)) ne.S.add(r.touched[a], r.touched[c], Sb);
-      }
-    }
-    ne.stats.factors_used += r.stats.factors_used;
-    ne.stats.factors_filtered += r.stats.factors_filtered;
-    ne.stats.depths_used += r.stats.depths_used;
-    ne.stats.depths_unobservable += r.stats.depths_unobservable;
-    ne.stats.chi2 += r.stats.chi2;
-    if (keep_depth_terms) ne.depths.push_back(std::move(r.depth));
-  }
+  detail::mergeSourceSystems(results, keep_depth_terms, ne);
   return ne;
 }
 
